@@ -164,6 +164,8 @@ class Scene:
 
     bodies: in stage traversal order; objectId = 1 + index.
     cameras: prim paths of the stage's cameras, traversal order.
+    default_camera: the settings' camera, else the first camera; None if none.
+    frame_range: the stage's (startTimeCode, endTimeCode) when authored.
     camera_state: ``camera_state(path, frame) -> CameraState`` evaluates a camera
         at a USD time code (the camera is the one thing that changes per frame).
     """
@@ -175,6 +177,8 @@ class Scene:
     settings: RenderSettings
     camera_state: object = None
     up_axis: str = "Y"
+    frame_range: tuple[float, float] | None = None
+    default_camera: str | None = None
 
     def body_paths(self) -> list[str]:
         return [b.prim_path for b in self.bodies]
