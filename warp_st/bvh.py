@@ -1,0 +1,139 @@
+"""A 4D bounding volume hierarchy over tetrahedra, built on the host.
+
+``wp.Bvh`` is 3D only, so the hierarchy over (t, x, y, z) boxes is ours. The build is
+a linear BVH (Karras 2012 style) done level by level with NumPy: primitives are sorted
+by a 52-bit Morton code of their 4D box centres (13 bits per axis), and every node is
+a contiguous range of that order, split where the highest differing code bit flips.
+Children of a node are stored next to each other, so a node needs only its first child.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["FlatBVH", "build_bvh", "LEAF_SIZE", "MAX_DEPTH"]
+
+#: Largest primitive count in a leaf.
+LEAF_SIZE = 4
+#: Depth bound of the build: 52 code bits plus the median splits of equal codes
+#: (log2 N <= 32). The traversal stack must hold at least this many entries.
+MAX_DEPTH = 52 + 32
+
+_BITS = 13
+
+
+@dataclass(frozen=True, eq=False)
+class FlatBVH:
+    """Node arrays of the 4D BVH, lab frame, float64.
+
+    node_lo, node_hi: box corners (t, x, y, z), shape (M, 4).
+    node_first: first child (internal) or first primitive (leaf), (M,), int32.
+    node_count: 0 for internal nodes, else the leaf's primitive count, (M,), int32.
+    order: the primitive permutation; primitive i of the leaves is input order[i].
+    """
+
+    node_lo: np.ndarray
+    node_hi: np.ndarray
+    node_first: np.ndarray
+    node_count: np.ndarray
+    order: np.ndarray
+    depth: int
+    build_seconds: float
+
+    @property
+    def node_count_total(self) -> int:
+        return int(len(self.node_lo))
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.node_lo.nbytes // 2 + self.node_hi.nbytes // 2 + self.node_first.nbytes + self.node_count.nbytes)
+
+
+def _morton4(q: np.ndarray) -> np.ndarray:
+    """Interleave four 13-bit integers per row into one code, (N, 4) -> (N,) uint64."""
+    code = np.zeros(len(q), dtype=np.uint64)
+    q = q.astype(np.uint64)
+    for bit in range(_BITS):
+        for axis in range(4):
+            code |= ((q[:, axis] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(4 * bit + axis)
+    return code
+
+
+def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray) -> FlatBVH:
+    """Build the BVH over primitive boxes ``prim_lo``/``prim_hi`` of shape (N, 4)."""
+    start_clock = time.perf_counter()
+    n = len(prim_lo)
+    if n == 0:
+        z = np.zeros((1, 4))
+        return FlatBVH(z, z - 1.0, np.zeros(1, np.int32), np.zeros(1, np.int32), np.zeros(0, np.int64), 0, 0.0)
+
+    centre = 0.5 * (prim_lo + prim_hi)
+    c_lo, c_hi = centre.min(axis=0), centre.max(axis=0)
+    scale = np.where(c_hi > c_lo, ((1 << _BITS) - 1) / np.maximum(c_hi - c_lo, 1e-300), 0.0)
+    quant = np.clip(((centre - c_lo) * scale).astype(np.int64), 0, (1 << _BITS) - 1)
+    codes = _morton4(quant)
+    order = np.argsort(codes, kind="stable")
+    codes = codes[order].astype(np.int64)  # < 2**52: exact in float64 for frexp
+
+    # Level-by-level split of contiguous ranges.
+    cap = 2 * n
+    first = np.zeros(cap, np.int64)
+    count = np.zeros(cap, np.int64)
+    levels = []  # node index arrays of internal nodes, per level
+    seg_start = np.array([0])
+    seg_end = np.array([n])
+    seg_node = np.array([0])
+    n_nodes = 1
+    depth = 0
+    while len(seg_node):
+        depth += 1
+        size = seg_end - seg_start
+        leaf = size <= LEAF_SIZE
+        first[seg_node[leaf]] = seg_start[leaf]
+        count[seg_node[leaf]] = size[leaf]
+        s0, s1, node = seg_start[~leaf], seg_end[~leaf], seg_node[~leaf]
+        if len(node) == 0:
+            break
+        lo_code, hi_code = codes[s0], codes[s1 - 1]
+        diff = lo_code ^ hi_code
+        _, exp = np.frexp(diff.astype(np.float64))
+        bit = np.maximum(exp - 1, 0).astype(np.int64)
+        target = ((lo_code >> bit) | 1) << bit
+        split = np.searchsorted(codes, target, side="left")
+        # Equal codes (or a degenerate search) fall back to the median.
+        bad = (diff == 0) | (split <= s0) | (split >= s1)
+        split = np.where(bad, (s0 + s1) // 2, split)
+        child = n_nodes + 2 * np.arange(len(node))
+        first[node] = child
+        count[node] = 0
+        n_nodes += 2 * len(node)
+        levels.append(node)
+        seg_start = np.concatenate([s0, split])
+        seg_end = np.concatenate([split, s1])
+        seg_node = np.concatenate([child, child + 1])
+
+    first, count = first[:n_nodes], count[:n_nodes]
+    lo = np.empty((n_nodes, 4))
+    hi = np.empty((n_nodes, 4))
+    # Leaf boxes: leaves partition the sorted primitives, so one reduceat each.
+    leaves = np.nonzero(count > 0)[0]
+    leaves = leaves[np.argsort(first[leaves])]
+    plo, phi = prim_lo[order], prim_hi[order]
+    lo[leaves] = np.minimum.reduceat(plo, first[leaves], axis=0)
+    hi[leaves] = np.maximum.reduceat(phi, first[leaves], axis=0)
+    for node in reversed(levels):  # children are always on a deeper level
+        c = first[node]
+        lo[node] = np.minimum(lo[c], lo[c + 1])
+        hi[node] = np.maximum(hi[c], hi[c + 1])
+
+    return FlatBVH(
+        node_lo=lo,
+        node_hi=hi,
+        node_first=first.astype(np.int32),
+        node_count=count.astype(np.int32),
+        order=order,
+        depth=depth,
+        build_seconds=time.perf_counter() - start_clock,
+    )

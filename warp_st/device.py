@@ -1,0 +1,102 @@
+"""The single NumPy -> Warp crossing.
+
+Static arrays (topology, BVH links, materials) are uploaded once per database; the
+float arrays that carry positions are recentred on the render origin (the camera
+event) in float64 on the host and only then rounded to the kernel's precision, so
+absolute times of 1e6 or 1e9 cost no accuracy. Node boxes are rounded outward so a
+rounded box always contains its rounded tetrahedra.
+"""
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from .bvh import FlatBVH
+from .extrude import SpacetimeMesh
+from .kernels import Kernels
+from .scene import Light
+
+__all__ = ["StaticArrays", "upload_static", "make_geometry", "make_shading"]
+
+_DEVICE = "cpu"
+
+
+class StaticArrays:
+    """Frame-independent device arrays of one database."""
+
+    def __init__(self, k: Kernels, mesh: SpacetimeMesh, bvh: FlatBVH):
+        np_scalar = np.float32 if k.scalar == wp.float32 else np.float64
+        self.np_scalar = np_scalar
+        self.tet = wp.array(mesh.tets.astype(np.int32), dtype=wp.vec4i, device=_DEVICE)
+        self.tet_tri = wp.array(mesh.tet_tri.astype(np.int32), dtype=wp.int32, device=_DEVICE)
+        self.node_first = wp.array(bvh.node_first, dtype=wp.int32, device=_DEVICE)
+        self.node_count = wp.array(bvh.node_count, dtype=wp.int32, device=_DEVICE)
+        self.vert_normal = wp.array(mesh.vertex_normals.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
+        self.tri_normal = wp.array(mesh.tri_normal.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
+        self.tri_smooth = wp.array(mesh.tri_smooth, dtype=wp.int32, device=_DEVICE)
+        self.tri_body = wp.array(mesh.tri_body, dtype=wp.int32, device=_DEVICE)
+        self.tri_material = wp.array(mesh.tri_material, dtype=wp.int32, device=_DEVICE)
+        mats = mesh.materials or ()
+        diffuse = np.array([m.diffuse for m in mats], dtype=np_scalar).reshape(-1, 3)
+        emissive = np.array([m.emissive for m in mats], dtype=np_scalar).reshape(-1, 3)
+        self.mat_diffuse = wp.array(diffuse, dtype=k.vec3, device=_DEVICE)
+        self.mat_emissive = wp.array(emissive, dtype=k.vec3, device=_DEVICE)
+        bodies = mesh.bodies
+        self.body_velocity = wp.array(
+            np.array([b.velocity for b in bodies], dtype=np_scalar).reshape(-1, 3), dtype=k.vec3, device=_DEVICE
+        )
+        self.body_gamma = wp.array(np.array([b.gamma for b in bodies], dtype=np_scalar), dtype=k.scalar, device=_DEVICE)
+        self.body_decoupled = wp.array(
+            np.array([1 if b.decoupled else 0 for b in bodies], dtype=np.int32), dtype=wp.int32, device=_DEVICE
+        )
+        self.body_events = np.array([[b.reference_time, *b.origin] for b in bodies], dtype=np.float64).reshape(-1, 4)
+
+
+def _outward(values64: np.ndarray, np_scalar, direction: float) -> np.ndarray:
+    """Round float64 values to ``np_scalar``, then two ulps towards ``direction``."""
+    out = values64.astype(np_scalar)
+    if np_scalar == np.float32:
+        out = np.nextafter(np.nextafter(out, np_scalar(direction)), np_scalar(direction))
+    return out
+
+
+def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: FlatBVH, origin: np.ndarray):
+    """Geometry struct with vertices and boxes recentred on ``origin`` = (t_c, c)."""
+    g = k.Geometry()
+    ns = static.np_scalar
+    g.vert = wp.array((mesh.vertices - origin).astype(ns), dtype=k.vec4, device=_DEVICE)
+    g.tet = static.tet
+    g.tet_tri = static.tet_tri
+    g.node_lo = wp.array(_outward(bvh.node_lo - origin, ns, -np.inf), dtype=k.vec4, device=_DEVICE)
+    g.node_hi = wp.array(_outward(bvh.node_hi - origin, ns, np.inf), dtype=k.vec4, device=_DEVICE)
+    g.node_first = static.node_first
+    g.node_count = static.node_count
+    return g
+
+
+def make_shading(k: Kernels, static: StaticArrays, lights: tuple[Light, ...], origin: np.ndarray, background):
+    """Shading struct: materials, bodies and lights, positions recentred on ``origin``."""
+    ns = static.np_scalar
+    s = k.Shading()
+    s.vert_normal = static.vert_normal
+    s.tri_normal = static.tri_normal
+    s.tri_smooth = static.tri_smooth
+    s.tri_body = static.tri_body
+    s.tri_material = static.tri_material
+    s.mat_diffuse = static.mat_diffuse
+    s.mat_emissive = static.mat_emissive
+    s.body_origin = wp.array((static.body_events - origin).astype(ns).reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
+    s.body_velocity = static.body_velocity
+    s.body_gamma = static.body_gamma
+    s.body_decoupled = static.body_decoupled
+    kinds = np.array([0 if l.kind == "sphere" else 1 for l in lights], dtype=np.int32)
+    pos = np.array([l.position for l in lights], dtype=np.float64).reshape(-1, 3) - origin[1:]
+    dirs = np.array([l.direction for l in lights], dtype=np.float64).reshape(-1, 3)
+    rad = np.array([l.radiance for l in lights], dtype=np.float64).reshape(-1, 3)
+    s.light_kind = wp.array(kinds, dtype=wp.int32, device=_DEVICE)
+    s.light_pos = wp.array(pos.astype(ns), dtype=k.vec3, device=_DEVICE)
+    s.light_dir = wp.array(dirs.astype(ns), dtype=k.vec3, device=_DEVICE)
+    s.light_radiance = wp.array(rad.astype(ns), dtype=k.vec3, device=_DEVICE)
+    s.light_count = len(lights)
+    s.background = k.vec3(*[float(x) for x in background])
+    return s

@@ -1,0 +1,197 @@
+"""Ray casting against the 4D tetrahedral database (pure Warp device code).
+
+A ray is the null line E(s) = O + s d with d = (-1, n) for finite light speed or
+(0, n) for infinite light speed (SPEC §1), s >= 0 the lookback. Everything is in
+render-origin coordinates (the camera event is the origin).
+
+Ray/tetrahedron intersection (thesis §4.3.2, barycentric): the 4D line meets the
+tetrahedron V0..V3 where O + s d = sum_i lam_i V_i, sum lam_i = 1, lam_i >= 0. We
+project along d onto the 3D space transverse to the ray,
+
+    q(P) = (x_rel . n + t_rel, x_rel . u, x_rel . w),   s(P) = -t_rel      (finite)
+    q(P) = (t_rel,             x_rel . u, x_rel . w),   s(P) = x_rel . n   (infinite)
+
+with (n, u, w) orthonormal and rel = P - O; the ray becomes the point q = 0 and the
+barycentric coordinates of 0 in the projected tetrahedron are ratios of triple
+products of its faces. Faces are evaluated in ascending global vertex order (the
+extrusion stores every tetrahedron's indices sorted), so the two tetrahedra sharing
+a face compute its triple product bit-identically and a ray can never slip between
+them: the watertight construction of pbrt's triangle test, one dimension up.
+"""
+
+import warp as wp
+
+__all__ = ["make_trace", "STACK_SIZE"]
+
+#: Traversal stack entries; larger than the BVH depth bound (bvh.MAX_DEPTH).
+STACK_SIZE = 96
+
+
+def make_trace(scalar):
+    vec3 = wp.types.vector(3, scalar)
+    vec4 = wp.types.vector(4, scalar)
+    stack_i = wp.types.vector(STACK_SIZE, wp.int32)
+    stack_s = wp.types.vector(STACK_SIZE, scalar)
+    BIG = 1.0e30
+    # pbrt's gamma(3)-style widening of the slab interval against rounding.
+    SLAB_GROW = 1.0 + 4.0 * (6.0e-8 if wp.types.type_size_in_bytes(scalar) == 4 else 1.2e-16)
+
+    @wp.struct
+    class Geometry:
+        vert: wp.array(dtype=vec4)
+        tet: wp.array(dtype=wp.vec4i)
+        tet_tri: wp.array(dtype=wp.int32)
+        node_lo: wp.array(dtype=vec4)
+        node_hi: wp.array(dtype=vec4)
+        node_first: wp.array(dtype=wp.int32)
+        node_count: wp.array(dtype=wp.int32)
+
+    @wp.func
+    def ray_basis(n: vec3):
+        # Duff et al. 2017, "Building an orthonormal basis, revisited".
+        sign = scalar(1.0)
+        if n[2] < scalar(0.0):
+            sign = scalar(-1.0)
+        a = scalar(-1.0) / (sign + n[2])
+        b = n[0] * n[1] * a
+        u = vec3(scalar(1.0) + sign * n[0] * n[0] * a, sign * b, -sign * n[0])
+        w = vec3(b, sign + n[1] * n[1] * a, -n[1])
+        return u, w
+
+    @wp.func
+    def project(p: vec4, o: vec4, n: vec3, u: vec3, w: vec3, finite: int):
+        rt = p[0] - o[0]
+        rx = vec3(p[1] - o[1], p[2] - o[2], p[3] - o[3])
+        a = wp.dot(rx, n)
+        q = vec3(rt, wp.dot(rx, u), wp.dot(rx, w))
+        s = a
+        if finite != 0:
+            q = vec3(a + rt, q[1], q[2])
+            s = -rt
+        return q, s
+
+    @wp.func
+    def triple(a: vec3, b: vec3, c: vec3) -> scalar:
+        return wp.dot(a, wp.cross(b, c))
+
+    @wp.func
+    def hit_tet(g: Geometry, ti: int, o: vec4, n: vec3, u: vec3, w: vec3, finite: int, s_min: scalar, s_max: scalar):
+        """(hit, s, barycentrics) of the ray with tetrahedron ti, for s in (s_min, s_max)."""
+        idx = g.tet[ti]
+        q0, s0 = project(g.vert[idx[0]], o, n, u, w, finite)
+        q1, s1 = project(g.vert[idx[1]], o, n, u, w, finite)
+        q2, s2 = project(g.vert[idx[2]], o, n, u, w, finite)
+        q3, s3 = project(g.vert[idx[3]], o, n, u, w, finite)
+        # D_i = signed volume with vertex i replaced by the ray point (the origin):
+        # cofactor signs of the 4x4 [q 1] determinant, faces in ascending order.
+        d0 = -triple(q1, q2, q3)
+        d1 = triple(q0, q2, q3)
+        d2 = -triple(q0, q1, q3)
+        d3 = triple(q0, q1, q2)
+        det = d0 + d1 + d2 + d3
+        lam = vec4(scalar(0.0))
+        s = scalar(0.0)
+        hit = False
+        if det != scalar(0.0):
+            pos = d0 >= scalar(0.0) and d1 >= scalar(0.0) and d2 >= scalar(0.0) and d3 >= scalar(0.0)
+            neg = d0 <= scalar(0.0) and d1 <= scalar(0.0) and d2 <= scalar(0.0) and d3 <= scalar(0.0)
+            if pos or neg:
+                inv = scalar(1.0) / det
+                lam = vec4(d0 * inv, d1 * inv, d2 * inv, d3 * inv)
+                s = lam[0] * s0 + lam[1] * s1 + lam[2] * s2 + lam[3] * s3
+                hit = s > s_min and s < s_max
+        return hit, s, lam
+
+    @wp.func
+    def box_entry(g: Geometry, node: int, o: vec4, inv: vec4, s_min: scalar, s_max: scalar):
+        """Slab test of the 4D box (the t slab is t = t_c - s): (hit, entry s)."""
+        lo = g.node_lo[node]
+        hi = g.node_hi[node]
+        t_near = s_min
+        t_far = s_max
+        for k in range(4):
+            a = (lo[k] - o[k]) * inv[k]
+            b = (hi[k] - o[k]) * inv[k]
+            t_near = wp.max(t_near, wp.min(a, b))
+            t_far = wp.min(t_far, wp.max(a, b) * scalar(SLAB_GROW))
+        return t_near <= t_far, t_near
+
+    @wp.func
+    def safe_inv(x: scalar) -> scalar:
+        if wp.abs(x) < scalar(1.0e-30):
+            if x < scalar(0.0):
+                return -scalar(BIG)
+            return scalar(BIG)
+        return scalar(1.0) / x
+
+    @wp.func
+    def trace(g: Geometry, o: vec4, n: vec3, finite: int, s_min: scalar, s_max: scalar, skip_tri: int, any_hit: int):
+        """Closest (or, with any_hit, any) hit with lookback in (s_min, s_max).
+
+        Returns (tet index or -1, s, barycentrics, nodes visited, stack overflowed).
+        Near child first with a fixed stack; an overflow is reported, never silent.
+        """
+        u, w = ray_basis(n)
+        dt = scalar(0.0)
+        if finite != 0:
+            dt = scalar(-1.0)
+        inv = vec4(safe_inv(dt), safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
+        best = s_max
+        best_tet = int(-1)
+        best_lam = vec4(scalar(0.0))
+        visits = int(0)
+        overflow = int(0)
+        st_node = stack_i()
+        st_s = stack_s()
+        sp = int(0)
+        root_hit, root_s = box_entry(g, 0, o, inv, s_min, best)
+        node = int(-1)
+        if root_hit:
+            node = 0
+        while node >= 0:
+            visits += 1
+            count = g.node_count[node]
+            first = g.node_first[node]
+            next_node = int(-1)
+            if count > 0:
+                for k in range(count):
+                    ti = first + k
+                    if g.tet_tri[ti] != skip_tri:
+                        h, s, lam = hit_tet(g, ti, o, n, u, w, finite, s_min, best)
+                        if h:
+                            best = s
+                            best_tet = ti
+                            best_lam = lam
+                if any_hit != 0 and best_tet >= 0:
+                    break
+            else:
+                h0, e0 = box_entry(g, first, o, inv, s_min, best)
+                h1, e1 = box_entry(g, first + 1, o, inv, s_min, best)
+                if h0 and h1:
+                    near = first
+                    far = first + 1
+                    e_far = e1
+                    if e1 < e0:
+                        near = first + 1
+                        far = first
+                        e_far = e0
+                    if sp < STACK_SIZE:
+                        st_node[sp] = far
+                        st_s[sp] = e_far
+                        sp += 1
+                    else:
+                        overflow = 1
+                    next_node = near
+                elif h0:
+                    next_node = first
+                elif h1:
+                    next_node = first + 1
+            # Pop until a node whose entry is still nearer than the best hit.
+            while next_node < 0 and sp > 0:
+                sp -= 1
+                if st_s[sp] <= best:
+                    next_node = st_node[sp]
+            node = next_node
+        return best_tet, best, best_lam, visits, overflow
+
+    return Geometry, trace, hit_tet, ray_basis

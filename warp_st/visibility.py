@@ -1,0 +1,146 @@
+"""Which lab times of each body the requested frames can see.
+
+Unbounded lifetimes must be clipped to a finite window before extrusion. A camera
+event (t_c, c) sees a body at lab time t only if some point of the body at t lies on
+the past lightcone, i.e. at distance t_c - t from c. With the body inside a ball of
+radius rho about m(t) = m0 + v (t - t_ref), that needs
+
+    t_c - rho <= |m(t) - c| + t <= t_c + rho.                          (1)
+
+h(t) = |m(t) - c| + t is convex; for |v| < 1 it is strictly increasing, so (1) is
+one interval whose ends solve |w + v tau| = K - tau (a quadratic in tau = t - t_ref).
+For |v| >= 1 (decoupled, superluminal) we keep the convex set {h <= t_c + rho}, the
+interval between the quadratic's roots. Shadow rays start at hit events, so with
+lights the window also covers everything the hit events' lightcones can reach: the
+same bound with the camera replaced by the ball holding every hit event.
+
+The windows are conservative: a wider window only adds exact geometry, so clipping
+never changes an image.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .extrude import contraction_matrix
+from .scene import Body, CameraState, Scene
+
+__all__ = ["body_ball", "frame_window", "visibility_windows"]
+
+#: Cap on how far into the past a window may reach when the bound is unbounded
+#: (only for a decoupled body at exactly |v| = 1), in multiples of the scene size.
+_UNBOUNDED_REACH = 1e6
+
+
+def body_ball(body: Body) -> tuple[np.ndarray, float]:
+    """Centre m0 (lab, at t_ref) and radius rho of a ball holding the contracted body."""
+    pts = np.concatenate([s.points for s in body.surfaces]) if body.surfaces else np.zeros((1, 3))
+    A = contraction_matrix(body.velocity, body.decoupled)
+    local = (pts - body.origin) @ A.T + body.origin
+    m0 = 0.5 * (local.min(axis=0) + local.max(axis=0))
+    rho = float(np.sqrt(((local - m0) ** 2).sum(axis=1).max()))
+    return m0, rho
+
+
+def _solve_h(w: np.ndarray, v: np.ndarray, k: float) -> np.ndarray:
+    """Roots tau of |w + v tau| = k - tau with k - tau >= 0 (ascending)."""
+    a = float(v @ v) - 1.0
+    b = 2.0 * (float(w @ v) + k)
+    c = float(w @ w) - k * k
+    if abs(a) < 1e-15:
+        roots = np.array([-c / b]) if b != 0.0 else np.zeros(0)
+    else:
+        disc = b * b - 4.0 * a * c
+        if disc < 0.0:
+            return np.zeros(0)
+        sq = np.sqrt(disc)
+        # Numerically stable pair of roots.
+        q = -0.5 * (b + np.copysign(sq, b)) if b != 0.0 else -0.5 * sq
+        roots = np.array([q / a, c / q]) if q != 0.0 else np.array([0.0])
+    tol = 1e-9 * (1.0 + abs(k))
+    return np.sort(roots[k - roots >= -tol])
+
+
+def frame_window(m0, rho, v, t_ref, t_c, c, *, infinite=False):
+    """Lab-time interval [lo, hi] in which a body can meet the past lightcone of (t_c, c).
+
+    Returns None when it never can. See the module docstring, equation (1).
+    """
+    if infinite:
+        pad = max(rho, 1.0)
+        return (t_c - pad, t_c + pad)
+    v = np.asarray(v, dtype=np.float64)
+    w = np.asarray(m0, dtype=np.float64) - np.asarray(c, dtype=np.float64)
+    speed = float(np.linalg.norm(v))
+    if speed < 1.0:
+        lo = _solve_h(w, v, t_c - rho - t_ref)
+        hi = _solve_h(w, v, t_c + rho - t_ref)
+        lo_t = lo[-1] + t_ref if len(lo) else -np.inf
+        hi_t = hi[-1] + t_ref if len(hi) else t_c
+        return (float(lo_t), float(min(hi_t, t_c + rho)))
+    roots = _solve_h(w, v, t_c + rho - t_ref)
+    if speed == 1.0 and len(roots) == 1:
+        reach = _UNBOUNDED_REACH * max(1.0, rho + float(np.linalg.norm(w)))
+        return (t_c - reach, t_c + rho)
+    if len(roots) == 0:
+        return None
+    return (float(roots[0] + t_ref), float(min(roots[-1] + t_ref, t_c + rho)))
+
+
+def _hull(a, b):
+    if a is None:
+        return b
+    if b is None:
+        return a
+    return (min(a[0], b[0]), max(a[1], b[1]))
+
+
+def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bool) -> list:
+    """Per body: the lab-time window the frames (and, with lights, shadow rays) can see.
+
+    Intersected with the body's lifetime; None where a body is never visible.
+    """
+    balls = [body_ball(b) for b in scene.bodies]
+    windows = []
+    for body, (m0, rho) in zip(scene.bodies, balls):
+        win = None
+        for cam in cameras:
+            win = _hull(win, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position, infinite=infinite))
+        windows.append(win)
+
+    if scene.lights and any(w is not None for w in windows):
+        windows = _extend_for_shadows(scene, balls, windows, infinite=infinite)
+
+    out = []
+    for body, win in zip(scene.bodies, windows):
+        if win is None:
+            out.append(None)
+            continue
+        pad = 1e-6 * (1.0 + max(abs(win[0]), abs(win[1])))
+        lo = max(win[0] - pad, body.lifetime[0])
+        hi = min(win[1] + pad, body.lifetime[1])
+        out.append((float(lo), float(hi)) if lo < hi else None)
+    return out
+
+
+def _extend_for_shadows(scene, balls, windows, *, infinite):
+    """Widen the windows to cover shadow rays leaving any possible hit event."""
+    lows, highs = [], []
+    for body, (m0, rho), win in zip(scene.bodies, balls, windows):
+        if win is None:
+            continue
+        for t in win:
+            centre = m0 + body.velocity * (t - body.reference_time)
+            lows.append(centre - rho)
+            highs.append(centre + rho)
+    box_lo, box_hi = np.min(lows, axis=0), np.max(highs, axis=0)
+    hit_centre = 0.5 * (box_lo + box_hi)
+    hit_radius = 0.5 * float(np.linalg.norm(box_hi - box_lo))
+    t_lo = min(w[0] for w in windows if w is not None)
+    t_hi = max(w[1] for w in windows if w is not None)
+    out = []
+    for body, (m0, rho), win in zip(scene.bodies, balls, windows):
+        fat = rho + hit_radius
+        for t_c in (t_lo, t_hi):
+            win = _hull(win, frame_window(m0, fat, body.velocity, body.reference_time, t_c, hit_centre, infinite=infinite))
+        out.append(win)
+    return out
