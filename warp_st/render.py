@@ -22,7 +22,7 @@ from .film import Image, quantize_time
 from .scene import CameraState, Scene, SceneError
 from .visibility import visibility_windows
 
-__all__ = ["Renderer", "render_frame", "RenderStats", "DEFAULT_RESOLUTION"]
+__all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION"]
 
 DEFAULT_RESOLUTION = (640, 360)
 #: Pixels per kernel launch; small enough to balance two cores, large enough that
@@ -34,14 +34,32 @@ def _warp():
     import warp as wp
 
     if not getattr(_warp, "_ready", False):
-        wp.config.quiet = True
+        wp.config.log_level = 40  # errors only: no banner or per-module load lines
         wp.config.enable_backward = False
         cache = os.environ.get("WARP_CACHE_PATH")
         if cache:
             wp.config.kernel_cache_dir = cache
-        wp.init()
+        _quiet_init(wp)
         _warp._ready = True
     return wp
+
+
+def _quiet_init(wp) -> None:
+    """wp.init() without the native 'no CUDA driver' line on a CPU-only machine."""
+    if os.environ.get("WARP_ST_DEBUG"):
+        wp.init()
+        return
+    import sys
+
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            wp.init()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 @dataclass
@@ -150,7 +168,6 @@ class Renderer:
         return self.light_speed or LightSpeed(cam.light_speed)
 
     def _build(self, cams: list[CameraState]) -> None:
-        from .bvh import build_bvh
         from .device import StaticArrays
         from .kernels import get_kernels
 
@@ -161,13 +178,9 @@ class Renderer:
         for mode in modes:  # hull of the windows of every light-speed mode in use
             w = visibility_windows(self.scene, cams, infinite=mode == LightSpeed.INFINITE)
             windows = w if windows is None else [_hull(a, b) for a, b in zip(windows, w)]
-        mesh = extrude_scene(self.scene, windows)
-        t1 = time.perf_counter()
-        events = mesh.vertices[mesh.tets] if mesh.tet_count else np.zeros((0, 4, 4))
-        bvh = build_bvh(events.min(axis=1), events.max(axis=1))
-        # Store tetrahedra in leaf order so a leaf is a contiguous range.
-        mesh = _permute(mesh, bvh.order)
+        mesh, bvh = build_database(self.scene, windows)
         t2 = time.perf_counter()
+        t1 = t2 - bvh.build_seconds
         tc = time.perf_counter()
         self.kernels = get_kernels(self.precision.value)
         wp.load_module(self.kernels.render_pixels.module, device="cpu")
@@ -292,10 +305,21 @@ def _hull(a, b):
     return (min(a[0], b[0]), max(a[1], b[1]))
 
 
-def _permute(mesh: SpacetimeMesh, order: np.ndarray) -> SpacetimeMesh:
+def build_database(scene: Scene, windows: list) -> tuple[SpacetimeMesh, "FlatBVH"]:
+    """Extrude ``scene`` over per-body time ``windows`` and build the 4D BVH.
+
+    The returned mesh stores its tetrahedra in BVH leaf order (a leaf is a
+    contiguous range), so tetrahedron indices refer to that order.
+    """
     import dataclasses
 
-    return dataclasses.replace(mesh, tets=mesh.tets[order], tet_tri=mesh.tet_tri[order])
+    from .bvh import build_bvh
+
+    mesh = extrude_scene(scene, windows)
+    events = mesh.vertices[mesh.tets] if mesh.tet_count else np.zeros((0, 4, 4))
+    bvh = build_bvh(events.min(axis=1), events.max(axis=1))
+    mesh = dataclasses.replace(mesh, tets=mesh.tets[bvh.order], tet_tri=mesh.tet_tri[bvh.order])
+    return mesh, bvh
 
 
 def render_frame(scene: Scene, *, frame=None, **options) -> Image:

@@ -8,6 +8,7 @@ import functools
 
 import warp as wp
 
+from .probe import make_probe
 from .trace import make_trace
 
 __all__ = ["get_kernels", "Kernels"]
@@ -21,10 +22,26 @@ class Kernels:
         self.vec3 = wp.types.vector(3, scalar)
         self.vec4 = wp.types.vector(4, scalar)
         self.mat33 = wp.types.matrix((3, 3), scalar)
-        Geometry, trace, _hit_tet, _basis = make_trace(scalar)
+        Geometry, trace, hit_tet, basis = make_trace(scalar)
         self.Geometry = Geometry
-        self.trace = trace
         self.Shading, self.Camera, self.Film, self.render_pixels = _make_render(scalar, self, trace, Geometry)
+        self._probe_parts = (scalar, self.vec3, self.vec4, Geometry, trace, hit_tet, basis)
+        self._probe = None
+
+    @property
+    def cast_rays(self):
+        """Kernel: closest hit of arbitrary null rays through the BVH (tests, benchmarks)."""
+        return self._probes()[0]
+
+    @property
+    def brute_rays(self):
+        """Kernel: closest hit of arbitrary null rays over every tetrahedron (the oracle)."""
+        return self._probes()[1]
+
+    def _probes(self):
+        if self._probe is None:  # built on first use: renders never compile them
+            self._probe = make_probe(*self._probe_parts)
+        return self._probe
 
 
 def _make_render(scalar, k, trace, Geometry):

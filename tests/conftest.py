@@ -1,0 +1,9 @@
+"""Shared test set-up: import the package from the checkout, keep Warp quiet."""
+import os
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+os.environ.setdefault("WARP_CACHE_PATH", str(ROOT / ".warp_cache"))

@@ -1,0 +1,82 @@
+"""Test helpers: databases built straight from host dataclasses, rays cast through them."""
+import numpy as np
+import warp as wp
+
+from warp_st import tessellate
+from warp_st.device import StaticArrays, make_geometry
+from warp_st.kernels import get_kernels
+from warp_st.render import _warp, build_database
+from warp_st.scene import Body, Material, RenderSettings, Scene, Surface
+
+
+def sphere_body(path, centre, radius, velocity=(0, 0, 0), *, segments=24, decoupled=False, lifetime=(-np.inf, np.inf), t_ref=0.0):
+    pts, tris, nrm = tessellate.sphere(radius, segments)
+    centre = np.asarray(centre, float)
+    return Body(
+        prim_path=path,
+        surfaces=(Surface(path, pts + centre, tris, Material(), nrm),),
+        origin=centre,
+        velocity=np.asarray(velocity, float),
+        reference_time=t_ref,
+        lifetime=lifetime,
+        decoupled=decoupled,
+    )
+
+
+def cube_body(path, centre, size, velocity=(0, 0, 0), *, decoupled=False, lifetime=(-np.inf, np.inf), t_ref=0.0):
+    pts, tris = tessellate.cube(size)
+    centre = np.asarray(centre, float)
+    return Body(path, (Surface(path, pts + centre, tris, Material()),), centre, np.asarray(velocity, float), t_ref, lifetime, decoupled)
+
+
+def scene_of(*bodies):
+    return Scene(source="<test>", bodies=tuple(bodies), lights=(), cameras=(), settings=RenderSettings())
+
+
+class Database:
+    """A scene extruded over fixed windows, uploaded for one render origin."""
+
+    def __init__(self, scene, windows, *, precision="float32", origin=(0, 0, 0, 0)):
+        _warp()
+        self.k = get_kernels(precision)
+        self.np_scalar = np.float32 if precision == "float32" else np.float64
+        self.mesh, self.bvh = build_database(scene, windows)
+        self.static = StaticArrays(self.k, self.mesh, self.bvh)
+        self.origin = np.asarray(origin, dtype=np.float64)
+        self.geo = make_geometry(self.k, self.static, self.mesh, self.bvh, self.origin)
+
+    def cast(self, origins, dirs, *, finite=True, brute=False):
+        """(tet, s, visits) for rays with lab origins (N, 4) and unit directions (N, 3)."""
+        k = self.k
+        rel = np.asarray(origins, np.float64) - self.origin
+        o = wp.array(rel.astype(self.np_scalar), dtype=k.vec4, device="cpu")
+        d = wp.array(np.asarray(dirs, np.float64).astype(self.np_scalar), dtype=k.vec3, device="cpu")
+        n = len(rel)
+        tet = wp.zeros(n, dtype=wp.int32, device="cpu")
+        s = wp.zeros(n, dtype=k.scalar, device="cpu")
+        if brute:
+            wp.launch(k.brute_rays, dim=n, inputs=[self.geo, self.mesh.tet_count, o, d, int(finite), tet, s], device="cpu")
+            return tet.numpy(), s.numpy().astype(np.float64), None
+        visits = wp.zeros(n, dtype=wp.int32, device="cpu")
+        wp.launch(k.cast_rays, dim=n, inputs=[self.geo, o, d, int(finite), tet, s, visits], device="cpu")
+        return tet.numpy(), s.numpy().astype(np.float64), visits.numpy()
+
+
+def solve_tets_f64(events, origin, direction, finite=True):
+    """Float64 oracle: solve O + s d = V0 + a e1 + b e2 + c e3 for every tetrahedron.
+
+    events: (N, 4, 4) tetrahedron events; returns (s (N,), barycentrics (N, 4)) with
+    NaN where the 4x4 system is singular (ray parallel to the tetrahedron's hyperplane).
+    """
+    d4 = np.array([-1.0 if finite else 0.0, *direction])
+    v0 = events[:, 0, :]
+    m = np.stack([events[:, 1] - v0, events[:, 2] - v0, events[:, 3] - v0, np.broadcast_to(-d4, v0.shape)], axis=2)
+    rhs = np.asarray(origin, float)[None, :] - v0
+    det = np.linalg.det(m)
+    ok = np.abs(det) > 1e-12 * np.abs(m).max(axis=(1, 2)) ** 4
+    sol = np.full((len(events), 4), np.nan)
+    if ok.any():
+        sol[ok] = np.linalg.solve(m[ok], rhs[ok][..., None])[..., 0]
+    abc, s = sol[:, :3], sol[:, 3]
+    lam = np.concatenate([1.0 - abc.sum(axis=1, keepdims=True), abc], axis=1)
+    return s, lam

@@ -1,0 +1,50 @@
+"""Ray-query kernels for tests and benchmarks: arbitrary null rays, BVH or brute force."""
+import warp as wp
+
+__all__ = ["make_probe"]
+
+
+def make_probe(scalar, vec3, vec4, Geometry, trace, hit_tet, ray_basis):
+    FAR = 1.0e30
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def cast_rays(
+        geo: Geometry,
+        origins: wp.array(dtype=vec4),
+        dirs: wp.array(dtype=vec3),
+        finite: int,
+        out_tet: wp.array(dtype=wp.int32),
+        out_s: wp.array(dtype=scalar),
+        out_visits: wp.array(dtype=wp.int32),
+    ):
+        i = wp.tid()
+        tet, s, _lam, visits, _ovf = trace(geo, origins[i], dirs[i], finite, scalar(0.0), scalar(FAR), -1, 0)
+        out_tet[i] = tet
+        out_s[i] = s
+        out_visits[i] = visits
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def brute_rays(
+        geo: Geometry,
+        tet_count: int,
+        origins: wp.array(dtype=vec4),
+        dirs: wp.array(dtype=vec3),
+        finite: int,
+        out_tet: wp.array(dtype=wp.int32),
+        out_s: wp.array(dtype=scalar),
+    ):
+        i = wp.tid()
+        o = origins[i]
+        n = dirs[i]
+        u, w = ray_basis(n)
+        best = scalar(FAR)
+        best_tet = int(-1)
+        for ti in range(tet_count):
+            h, s, _lam = hit_tet(geo, ti, o, n, u, w, finite, scalar(0.0), best)
+            if h:
+                best = s
+                best_tet = ti
+        out_tet[i] = best_tet
+        out_s[i] = best
+
+    return cast_rays, brute_rays
