@@ -5,7 +5,7 @@ import warp as wp
 from warp_st import tessellate
 from warp_st.device import StaticArrays, make_geometry
 from warp_st.kernels import get_kernels
-from warp_st.render import _warp, build_database
+from warp_st.renderer import _warp, build_database
 from warp_st.scene import Body, Material, RenderSettings, Scene, Surface
 
 

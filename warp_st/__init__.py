@@ -36,8 +36,8 @@ def load(source, **kwargs) -> Scene:
 
 
 def render(scene, **kwargs):
-    """Render one frame of ``scene``; see :func:`warp_st.render.render_frame`."""
-    from .render import render_frame
+    """Render one frame of ``scene``; see :func:`warp_st.renderer.render_frame`."""
+    from .renderer import render_frame
 
     return render_frame(scene, **kwargs)
 

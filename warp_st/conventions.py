@@ -36,9 +36,10 @@ MINKOWSKI = np.diag([-1.0, 1.0, 1.0, 1.0])
 #: is ~1000 ulps, well above the rounding of the interpolated hit event.
 SELF_HIT_EPS = 1e-4
 
-#: Float32 node boxes are rounded outward by this many ulps after recentring so
-#: that a float64 box always lies inside its float32 copy.
-BOX_PAD_ULPS = 2
+#: Node boxes are rounded outward by this many ulps after recentring so that a
+#: float64 box always lies inside its kernel-precision copy, with room for the
+#: kernel's per-face rounding tolerance.
+BOX_PAD_ULPS = 4
 
 
 class LightSpeed(str, enum.Enum):

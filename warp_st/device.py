@@ -12,6 +12,7 @@ import numpy as np
 import warp as wp
 
 from .bvh import FlatBVH
+from .conventions import BOX_PAD_ULPS
 from .extrude import SpacetimeMesh
 from .kernels import Kernels
 from .scene import Light
@@ -53,10 +54,13 @@ class StaticArrays:
 
 
 def _outward(values64: np.ndarray, np_scalar, direction: float) -> np.ndarray:
-    """Round float64 values to ``np_scalar``, then two ulps towards ``direction``."""
+    """Round float64 values to ``np_scalar``, then BOX_PAD_ULPS ulps towards ``direction``.
+
+    The pad also covers the kernel's per-face rounding tolerance at box corners.
+    """
     out = values64.astype(np_scalar)
-    if np_scalar == np.float32:
-        out = np.nextafter(np.nextafter(out, np_scalar(direction)), np_scalar(direction))
+    for _ in range(BOX_PAD_ULPS):
+        out = np.nextafter(out, np_scalar(direction))
     return out
 
 

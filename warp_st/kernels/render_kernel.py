@@ -1,6 +1,6 @@
 """The per-pixel megakernel: camera ray on the past lightcone, closest hit, shading, AOVs.
 
-Pure Warp device code; the host (``warp_st.render``) fills the structs. All events are
+Pure Warp device code; the host (``warp_st.renderer``) fills the structs. All events are
 relative to the render origin (the camera event), so large absolute times cost nothing.
 """
 

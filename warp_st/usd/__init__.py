@@ -13,8 +13,10 @@ def register_schemas() -> None:
 
     Before the first ``pxr`` import this only extends ``PXR_PLUGINPATH_NAME`` (the
     plugin is then discovered with the built-in ones). If ``pxr`` is already
-    imported, the plugin is registered directly; stages still read correctly
-    without it (the reader looks at ``apiSchemas`` metadata and raw attributes).
+    imported, the plugin is registered directly, which makes the schemas known
+    only if ``Usd.SchemaRegistry`` has not been built yet (USD builds it once).
+    Stages read the same either way: the reader looks at the ``apiSchemas``
+    metadata and the raw attributes, with the SPEC fallbacks in code.
     """
     path = str(SCHEMA_DIR)
     if "pxr" not in sys.modules:

@@ -1,0 +1,547 @@
+"""The ``warp-st`` command line (SPEC §6): thin commands over the public API.
+
+    warp-st render SCENE.usda [-o OUT.exr | -o OUT.####.exr] [--frame N | --frames 1-240x2]
+                   [--camera /Path] [--width W --height H] [--max-depth D] [--samples S]
+                   [--precision float32|float64] [--light-speed finite|infinite]
+                   [--resume] [--quiet]
+    warp-st inspect OUT.exr [--pixel X Y] [--channel NAME --png OUT.png]
+    warp-st validate SCENE.usda
+
+Exit status: 0 success; 2 bad input (one line ``warp-st: error: ...`` on stderr, no
+traceback, nothing written); 1 internal error (traceback with WARP_ST_DEBUG set);
+130 interrupted (the message says which frames are complete).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import re
+import shlex
+import sys
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+from .scene import SceneError
+
+__all__ = ["main", "parse_frames", "expand_output", "has_frame_pattern", "format_frame"]
+
+PROG = "warp-st"
+
+
+class UsageError(Exception):
+    """Bad input detected by the command line itself: exit 2 with one line."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports errors as one line (no usage block) through UsageError."""
+
+    def error(self, message):  # noqa: D102 - argparse API
+        raise UsageError(message)
+
+
+# --- frames and output names ---------------------------------------------------
+
+_RANGE = re.compile(r"^\s*(-?\d+)\s*-\s*(-?\d+)\s*(?:x\s*(\d+))?\s*$")
+_NUMBER = re.compile(r"^\s*-?(\d+(\.\d*)?|\.\d+)([eE][-+]?\d+)?\s*$")
+
+
+def parse_frames(text: str) -> list[float]:
+    """Frames from ``A-B[xStep]`` ranges (inclusive, integers) and numbers, comma separated.
+
+    ``"1-240x2"`` -> 1, 3, ..., 239; ``"1,5,10-20x5"`` -> 1, 5, 10, 15, 20. Single
+    items may be fractional time codes. Duplicates are dropped, order is kept.
+    Raises argparse.ArgumentTypeError (exit 2) on a malformed or empty range.
+    """
+    frames: list[float] = []
+    for item in text.split(","):
+        if not item.strip():
+            raise argparse.ArgumentTypeError(f"bad frame list {text!r}: empty item")
+        m = _RANGE.match(item)
+        if m:
+            first, last = int(m.group(1)), int(m.group(2))
+            step = int(m.group(3)) if m.group(3) is not None else 1
+            if step < 1:
+                raise argparse.ArgumentTypeError(f"bad frame range {item.strip()!r}: step must be >= 1")
+            if last < first:
+                raise argparse.ArgumentTypeError(
+                    f"bad frame range {item.strip()!r}: end {last} is before start {first}"
+                )
+            frames.extend(float(f) for f in range(first, last + 1, step))
+        elif _NUMBER.match(item):
+            frames.append(_finite_frame(item))
+        else:
+            raise argparse.ArgumentTypeError(
+                f"bad frame list {text!r}: expected N, A-B or A-BxStep items separated by commas"
+            )
+    return list(dict.fromkeys(frames))
+
+
+def _finite_frame(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"bad frame {text!r}: not a number") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"bad frame {text!r}: must be finite")
+    return value
+
+
+_PATTERN = re.compile(r"#+|%0?(\d*)d")
+
+
+def has_frame_pattern(name: str) -> bool:
+    """True if ``name`` has a ``####`` run or a ``%04d`` printf pattern."""
+    return _PATTERN.search(name) is not None
+
+
+def format_frame(frame: float, width: int) -> str:
+    """Zero-padded frame number; fractional time codes keep their fraction (``0001.5``)."""
+    frame = float(frame)
+    if frame.is_integer():
+        return f"{int(frame):0{width}d}"
+    text = np.format_float_positional(abs(frame), trim="-")
+    whole, frac = text.split(".")
+    sign = "-" if frame < 0 else ""
+    return sign + whole.zfill(max(width - len(sign), 0)) + "." + frac
+
+
+def expand_output(pattern: str, frame: float) -> str:
+    """Replace every ``#`` run (width = its length) and ``%0Nd`` by the frame number."""
+
+    def repl(m: re.Match) -> str:
+        if m.group(0).startswith("#"):
+            width = len(m.group(0))
+        else:
+            width = int(m.group(1)) if m.group(1) else 0
+        return format_frame(frame, width)
+
+    return _PATTERN.sub(repl, pattern)
+
+
+def _frame_label(frame: float) -> str:
+    return str(int(frame)) if float(frame).is_integer() else repr(float(frame))
+
+
+def _frames_label(frames: list[float]) -> str:
+    """Compact list: consecutive integers grouped as ranges ("0-2, 5, 7.5")."""
+    if not frames:
+        return "none"
+    parts: list[str] = []
+    run: list[int] = []
+
+    def flush():
+        if run:
+            parts.append(str(run[0]) if len(run) == 1 else f"{run[0]}-{run[-1]}")
+            run.clear()
+
+    for f in sorted(frames):
+        if float(f).is_integer() and (not run or int(f) == run[-1] + 1):
+            run.append(int(f))
+            continue
+        flush()
+        if float(f).is_integer():
+            run.append(int(f))
+        else:
+            parts.append(_frame_label(f))
+    flush()
+    return ", ".join(parts)
+
+
+# --- argument parsing ----------------------------------------------------------
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return value
+
+
+def _int_arg(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
+    parser = _Parser(
+        prog=PROG,
+        description="Special-relativistic spacetime renderer: USD scenes -> EXR frames.",
+    )
+    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="{render,inspect,validate}")
+
+    r = sub.add_parser("render", help="render frames of a USD scene to EXR files", prog=f"{PROG} render")
+    r.add_argument("scene", metavar="SCENE.usda", help="the USD stage to render")
+    r.add_argument(
+        "-o", "--output", metavar="OUT.exr",
+        help="output file; '#' runs or %%04d are replaced by the frame number "
+        "(default: <scene stem>.exr, or <scene stem>.####.exr with --frames)",
+    )
+    frames = r.add_mutually_exclusive_group()
+    frames.add_argument("--frame", type=_finite_frame, metavar="N",
+                        help="USD time code to render (default: the stage's start time code, else 0)")
+    frames.add_argument("--frames", type=parse_frames, metavar="A-B[xS],...",
+                        help="frames to render: inclusive ranges with optional step, comma separated")
+    r.add_argument("--camera", metavar="/Path", help="camera prim path")
+    r.add_argument("--width", type=_positive_int, metavar="W", help="image width in pixels")
+    r.add_argument("--height", type=_positive_int, metavar="H", help="image height in pixels")
+    r.add_argument("--max-depth", type=_non_negative_int, metavar="D", help="mirror reflection bounces")
+    r.add_argument("--samples", type=_positive_int, metavar="S", help="samples per pixel")
+    r.add_argument("--precision", choices=("float32", "float64"), help="scalar type of the kernels")
+    r.add_argument("--light-speed", choices=("finite", "infinite"), help="finite (c = 1) or infinite light speed")
+    r.add_argument("--resume", action="store_true", help="skip frames whose output is already a complete EXR")
+    r.add_argument("--quiet", "-q", action="store_true", help="print nothing but errors")
+
+    i = sub.add_parser("inspect", help="print an EXR's header, channel statistics or a pixel",
+                       prog=f"{PROG} inspect")
+    i.add_argument("exr", metavar="OUT.exr")
+    i.add_argument("--pixel", nargs=2, type=_int_arg, metavar=("X", "Y"),
+                   help="print every channel at column X, row Y (row 0 at the top)")
+    i.add_argument("--channel", metavar="NAME", help="channel for statistics or --png")
+    i.add_argument("--png", metavar="OUT.png", help="write a false-colour PNG of --channel")
+
+    v = sub.add_parser("validate", help="load a scene and report what it contains", prog=f"{PROG} validate")
+    v.add_argument("scene", metavar="SCENE.usda")
+    return parser
+
+
+# --- render --------------------------------------------------------------------
+
+
+def _plan_outputs(args, scene_path: Path, frames: list[float], frames_given: bool) -> list[Path]:
+    pattern = args.output
+    if pattern is None:
+        pattern = f"{scene_path.stem}.####.exr" if frames_given else f"{scene_path.stem}.exr"
+    if len(frames) > 1 and not has_frame_pattern(pattern):
+        raise UsageError(
+            f"{len(frames)} frames need a frame pattern in the output name "
+            f"(e.g. OUT.####.exr or OUT.%04d.exr), got {pattern!r}"
+        )
+    outputs = [Path(expand_output(pattern, f)) for f in frames]
+    if len(set(outputs)) != len(outputs):
+        raise UsageError(f"output pattern {pattern!r} gives several frames the same file name")
+    from .exr import check_output_path
+
+    for out in outputs:
+        try:
+            check_output_path(out)
+        except OSError as exc:
+            raise UsageError(exc.strerror or str(exc)) from None
+    return outputs
+
+
+def _options_text(args) -> str:
+    names = ("camera", "width", "height", "max_depth", "samples", "precision", "light_speed")
+    return " ".join(f"{n}={getattr(args, n)}" for n in names if getattr(args, n) is not None)
+
+
+def _cmd_render(args, argv: list[str]) -> int:
+    import warp_st
+    from .conventions import LightSpeed, Precision
+    from .exr import is_complete_exr
+
+    scene_path = Path(args.scene)
+    if not scene_path.is_file():
+        raise UsageError(f"{scene_path}: no such file")
+    frames_given = args.frames is not None
+    if frames_given:
+        frames = list(args.frames)
+    elif args.frame is not None:
+        frames = [float(args.frame)]
+    else:
+        frames = None  # the stage's start time code: known once it is loaded
+    if frames is not None:  # check the output names before the (slower) load
+        _plan_outputs(args, scene_path, frames, frames_given)
+    scene = warp_st.load(str(scene_path))
+    if frames is None:
+        frames = [float(scene.frame_range[0])] if scene.frame_range is not None else [0.0]
+    outputs = _plan_outputs(args, scene_path, frames, frames_given)
+
+    complete: list[float] = []
+    todo: list[tuple[float, Path]] = []
+    for frame, out in zip(frames, outputs):
+        if args.resume and is_complete_exr(out):
+            complete.append(frame)
+            if not args.quiet:
+                print(f"frame {_frame_label(frame)}: complete, skipped ({out})")
+        else:
+            todo.append((frame, out))
+    if not todo:
+        if not args.quiet:
+            print(f"all {len(frames)} frame(s) already complete")
+        return 0
+
+    try:
+        from .renderer import Renderer
+
+        renderer = Renderer(
+            scene,
+            frames=[f for f, _ in todo],
+            camera=args.camera,
+            width=args.width,
+            height=args.height,
+            max_depth=args.max_depth,
+            samples=args.samples,
+            precision=Precision(args.precision) if args.precision else None,
+            light_speed=LightSpeed(args.light_speed) if args.light_speed else None,
+        )
+        if not args.quiet:
+            stats = renderer.describe() or {}
+            if stats:
+                print("scene: " + ", ".join(f"{k}={v}" for k, v in stats.items()))
+
+        metadata = {"stage": str(scene_path), "commandLine": shlex.join([PROG, *argv])}
+        options = _options_text(args)
+        if options:
+            metadata["options"] = options
+
+        use_bar = not args.quiet and sys.stderr.isatty()
+        bar = None
+        if use_bar:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(todo), unit="frame", file=sys.stderr, dynamic_ncols=True)
+        try:
+            for frame, out in todo:
+                start = time.perf_counter()
+                image = renderer.render(frame)
+                for key, value in metadata.items():
+                    image.metadata.setdefault(key, value)
+                image.write_exr(out)
+                complete.append(frame)
+                seconds = time.perf_counter() - start
+                if bar is not None:
+                    bar.set_postfix_str(f"frame {_frame_label(frame)} {seconds:.2f}s")
+                    bar.update(1)
+                elif not args.quiet:
+                    print(f"frame {_frame_label(frame)}: {seconds:.2f} s -> {out}", flush=True)
+        finally:
+            if bar is not None:
+                bar.close()
+    except KeyboardInterrupt:
+        print(
+            f"{PROG}: interrupted; frames complete: {_frames_label(complete)} "
+            f"({len(complete)} of {len(frames)}); rerun with --resume to continue",
+            file=sys.stderr,
+        )
+        return 130
+    return 0
+
+
+# --- inspect -------------------------------------------------------------------
+
+
+def _fmt(value, dtype) -> str:
+    """Exact shortest text of a numpy scalar (float32 prints as float32, not widened)."""
+    dtype = np.dtype(dtype)
+    if dtype.kind == "u":
+        return str(int(value))
+    return str(dtype.type(value))
+
+
+def _stats_row(name: str, plane: np.ndarray) -> str:
+    kind = "UINT" if plane.dtype.kind == "u" else "FLOAT"
+    if plane.dtype.kind == "f":
+        finite = plane[np.isfinite(plane)]
+        nan = int(np.isnan(plane).sum())
+        pinf = int(np.isposinf(plane).sum())
+        ninf = int(np.isneginf(plane).sum())
+    else:
+        finite, nan, pinf, ninf = plane, 0, 0, 0
+    if finite.size:
+        if plane.dtype.kind == "u":
+            lo, hi = str(int(finite.min())), str(int(finite.max()))
+        else:
+            lo, hi = _fmt(finite.min(), plane.dtype), _fmt(finite.max(), plane.dtype)
+        digits = 16 if plane.dtype == np.float64 else 9
+        mean = f"{float(np.mean(finite, dtype=np.float64)):.{digits}g}"
+    else:
+        lo = hi = mean = "-"
+    return f"  {name:<22} {kind:<5} {lo:>20} {hi:>20} {mean:>22} {nan:>7} {pinf:>7} {ninf:>7}"
+
+
+def _print_stats(image, names) -> None:
+    print(f"  {'channel':<22} {'type':<5} {'min':>20} {'max':>20} {'mean':>22} {'nan':>7} {'+inf':>7} {'-inf':>7}")
+    for name in names:
+        print(_stats_row(name, image.channel(name)))
+
+
+def _prim_for(image, object_id: int) -> str:
+    if object_id == 0:
+        return "none (background)"
+    return image.id_manifest.get(object_id, f"unknown (objectId {object_id} not in idManifest)")
+
+
+def _write_png(image, exr_path: Path, name: str, png_path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .exr import atomic_output
+    from .film import channel_spec
+
+    spec = channel_spec(name)
+    plane = image.channel(name)
+    label = spec.units
+    if spec.relative_time:
+        plane = plane - image.time_origin
+        label = f"{spec.units}\nrelative to spacetime:timeOrigin = {image.time_origin!r}"
+    data = np.ma.masked_invalid(np.asarray(plane, dtype=np.float64))
+    # grey: NaN / inf (the background of most AOVs)
+    cmap = plt.get_cmap("tab20" if name == "objectId" else "viridis").with_extremes(bad="0.5")
+    dpi = 100
+    fig_w = max(4.0, min(12.0, image.width / dpi + 1.5))
+    fig_h = max(3.0, fig_w * image.height / max(image.width, 1))
+    fig, ax = plt.subplots(figsize=(fig_w, fig_h), dpi=dpi)
+    try:
+        shown = ax.imshow(data, cmap=cmap, interpolation="nearest")
+        bar = fig.colorbar(shown, ax=ax, fraction=0.046, pad=0.04)
+        bar.set_label(label)
+        ax.set_title(f"{exr_path.name}: {name}")
+        ax.set_xlabel("x (pixels)")
+        ax.set_ylabel("y (pixels)")
+        with atomic_output(png_path) as fh:
+            fig.savefig(fh, format="png", bbox_inches="tight")
+    finally:
+        plt.close(fig)
+
+
+def _cmd_inspect(args) -> int:
+    from .exr import check_output_path, read_exr, read_header
+    from .film import CHANNEL_NAMES
+
+    path = Path(args.exr)
+    if args.png and not args.channel:
+        raise UsageError("--png needs --channel NAME")
+    if args.channel is not None and args.channel not in CHANNEL_NAMES:
+        raise UsageError(f"unknown channel {args.channel!r}; known: {', '.join(CHANNEL_NAMES)}")
+    image = read_exr(path)
+    if args.channel is not None and args.channel not in image.channel_names:
+        raise UsageError(f"{path}: has no channel {args.channel!r}")
+    if args.pixel is not None:
+        x, y = args.pixel
+        if not (0 <= x < image.width and 0 <= y < image.height):
+            raise UsageError(
+                f"pixel ({x}, {y}) is outside the {image.width} x {image.height} image "
+                f"(x in 0..{image.width - 1}, y in 0..{image.height - 1})"
+            )
+    if args.png:
+        try:
+            check_output_path(args.png)
+        except OSError as exc:
+            raise UsageError(exc.strerror or str(exc)) from None
+
+    if args.pixel is not None:
+        x, y = args.pixel
+        print(f"{path}: pixel x={x} y={y}")
+        for name in image.channel_names:
+            plane = image.channel(name)
+            text = _fmt(plane[y, x], plane.dtype)
+            spec_rel = name in ("spacetime.eventTime", "spacetime.sourceTime")
+            if spec_rel and np.isfinite(plane[y, x]):
+                text += f"  (relative {_fmt(image.file_channel(name)[y, x], np.float32)})"
+            print(f"  {name:<22} {text}")
+        object_id = int(image.object_id[y, x])
+        print(f"  prim: {_prim_for(image, object_id)}")
+    elif args.channel is not None and not args.png:
+        _print_stats(image, [args.channel])
+    elif not args.png:
+        print(f"file: {path}")
+        print(f"size: {image.width} x {image.height}")
+        print("header:")
+        for key, value in read_header(path).items():
+            print(f"  {key}: {value}")
+        if image.id_manifest:
+            print("idManifest (objectId -> prim path):")
+            for object_id, prim in sorted(image.id_manifest.items()):
+                print(f"  {object_id}: {prim}")
+        print("channels (min / max / mean over finite values; eventTime, sourceTime absolute):")
+        _print_stats(image, image.channel_names)
+    if args.png:
+        _write_png(image, path, args.channel, Path(args.png))
+        print(f"wrote {args.png}")
+    return 0
+
+
+# --- validate ------------------------------------------------------------------
+
+
+def _cmd_validate(args) -> int:
+    import warp_st
+
+    scene_path = Path(args.scene)
+    if not scene_path.is_file():
+        raise UsageError(f"{scene_path}: no such file")
+    scene = warp_st.load(str(scene_path))
+    print(f"ok: {len(scene.bodies)} bodies, {len(scene.cameras)} cameras, {len(scene.lights)} lights")
+    return 0
+
+
+# --- entry point ---------------------------------------------------------------
+
+
+def _error(message: str) -> None:
+    message = " ".join(str(message).split())  # one line, always
+    print(f"{PROG}: error: {message}", file=sys.stderr)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run ``warp-st`` with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if args.command is None:
+            raise UsageError("a command is required: render, inspect or validate (see --help)")
+        if args.command == "render":
+            return _cmd_render(args, argv)
+        if args.command == "inspect":
+            return _cmd_inspect(args)
+        return _cmd_validate(args)
+    except SystemExit as exc:  # --help / --version
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+    except UsageError as exc:
+        _error(str(exc))
+        return 2
+    except SceneError as exc:
+        _error(str(exc))
+        return 2
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+    except OSError as exc:  # e.g. disk full while writing: not a bug, not bad input
+        _error(str(exc))
+        if os.environ.get("WARP_ST_DEBUG"):
+            traceback.print_exc()
+        return 1
+    except Exception as exc:  # noqa: BLE001 - the last resort of a command line
+        print(f"{PROG}: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        if os.environ.get("WARP_ST_DEBUG"):
+            traceback.print_exc()
+        return 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

@@ -1,0 +1,361 @@
+"""EXR read/write for :class:`warp_st.film.Image` (SPEC §4). The only OpenEXR import.
+
+File layout: one scanline part, ZIP compression (lossless for FLOAT and UINT),
+channels from the registry :data:`warp_st.film.CHANNELS` (FLOAT stored float32,
+``objectId`` and ``spacetime.bounces`` UINT). ``spacetime.eventTime`` and
+``spacetime.sourceTime`` hold float32 (t - spacetime:timeOrigin).
+
+Header attributes:
+
+- ``spacetime:cameraTime``, ``spacetime:timeOrigin``, ``spacetime:frame``: doubles
+  (OpenEXR's Python binding writes a Python float as a 32-bit ``float``
+  attribute; a float64 numpy array becomes a ``double`` one).
+- ``spacetime:precision`` and ``spacetime:version``: strings.
+- ``spacetime:<key>``: every ``Image.metadata`` item, as a string.
+- ``idManifest``: the standard OpenEXR ID manifest (``Imf::IDManifest``), one
+  channel group on channel ``objectId``, component ``primPath``, ids not hashed,
+  lifetime "shot" (ids are stage traversal order: stable over the frames of one
+  stage). Compositors that read ID manifests find the prim path of each id there.
+
+Writes are atomic: the file is encoded into ``.NAME.<pid>.tmp`` in the target
+directory, fsynced and renamed over the final name, so an interrupted or failed
+write never leaves a truncated file under the final name.
+"""
+from __future__ import annotations
+
+import contextlib
+import errno
+import io
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import OpenEXR
+
+from .film import CHANNEL_NAMES, REQUIRED_CHANNELS, Image, channel_spec
+from .scene import SceneError
+
+__all__ = ["write_exr", "read_exr", "read_header", "is_complete_exr", "atomic_output", "check_output_path"]
+
+ATTR_PREFIX = "spacetime:"
+ATTR_CAMERA_TIME = "spacetime:cameraTime"
+ATTR_TIME_ORIGIN = "spacetime:timeOrigin"
+ATTR_FRAME = "spacetime:frame"
+ATTR_PRECISION = "spacetime:precision"
+ATTR_VERSION = "spacetime:version"
+ATTR_ID_MANIFEST = "idManifest"
+#: ID manifest channel group: the channel it describes and its component name.
+MANIFEST_CHANNEL = "objectId"
+MANIFEST_COMPONENT = "primPath"
+
+#: Header keys written from Image fields; metadata may not use them.
+_RESERVED_KEYS = {"cameraTime", "timeOrigin", "frame", "precision", "idManifest"}
+_DOUBLE_ATTRS = {ATTR_CAMERA_TIME: "camera_time", ATTR_TIME_ORIGIN: "time_origin", ATTR_FRAME: "frame"}
+
+
+# --- atomic output ---------------------------------------------------------------
+
+
+def check_output_path(path) -> Path:
+    """Fail early (an OSError naming ``path``) if ``path`` cannot be written.
+
+    The directory must exist and be writable and ``path`` must not be a directory.
+    """
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise FileNotFoundError(errno.ENOENT, f"cannot write {path}: directory {directory} does not exist")
+    if not os.access(directory, os.W_OK | os.X_OK):
+        raise PermissionError(errno.EACCES, f"cannot write {path}: directory {directory} is not writable")
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, f"cannot write {path}: it is a directory")
+    return path
+
+
+def _temp_name(path: Path) -> Path:
+    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+
+
+@contextlib.contextmanager
+def atomic_output(path):
+    """Open a temporary binary file next to ``path``; on success rename it onto ``path``.
+
+    Usage: ``with atomic_output(p) as fh: fh.write(...)``. The temp file is
+    fsynced before ``os.replace``; on any exception (KeyboardInterrupt included) it
+    is removed and ``path`` is left as it was.
+    """
+    path = check_output_path(path)
+    tmp = _temp_name(path)
+    try:
+        fh = open(tmp, "wb")
+    except OSError as exc:
+        raise type(exc)(exc.errno, f"cannot write {path}: {exc.strerror}") from exc
+    try:
+        with fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    # Make the rename itself durable; not all platforms allow fsync on a directory.
+    with contextlib.suppress(OSError):
+        dir_fd = os.open(path.parent if str(path.parent) else ".", os.O_RDONLY)
+        try:
+            os.fsync(dir_fd)
+        finally:
+            os.close(dir_fd)
+
+
+# --- writing -------------------------------------------------------------------
+
+
+def _id_manifest(id_manifest: dict[int, str]):
+    manifest = OpenEXR.IDManifest()
+    group = manifest.add(MANIFEST_CHANNEL)
+    group.setComponent(MANIFEST_COMPONENT)
+    group.setHashScheme(OpenEXR.ID_MANIFEST_NOTHASHED)
+    group.setEncodingScheme(OpenEXR.ID_MANIFEST_ID_SCHEME)
+    group.setLifetime(OpenEXR.LIFETIME_SHOT)
+    for object_id, prim_path in sorted(id_manifest.items()):
+        group.insert(int(object_id), str(prim_path))
+    return manifest
+
+
+def _header(image: Image) -> dict:
+    from . import __version__
+
+    header = {
+        "type": OpenEXR.scanlineimage,
+        "compression": OpenEXR.ZIP_COMPRESSION,
+        "lineOrder": OpenEXR.INCREASING_Y,
+    }
+    for attr, field_name in _DOUBLE_ATTRS.items():
+        header[attr] = np.array([getattr(image, field_name)], dtype=np.float64)
+    header[ATTR_PRECISION] = str(image.precision)
+    for key, value in image.metadata.items():
+        if key == "version":
+            continue  # read back from a file; the writer's own version always wins
+        if not key or key in _RESERVED_KEYS:
+            raise ValueError(f"Image.metadata key {key!r} is empty or reserved")
+        header[ATTR_PREFIX + key] = str(value)
+    header[ATTR_VERSION] = str(__version__)
+    if image.id_manifest:
+        header[ATTR_ID_MANIFEST] = _id_manifest(image.id_manifest)
+    return header
+
+
+def _encode(header: dict, channels: dict, fh) -> None:
+    """Encode one scanline EXR into the open binary file ``fh``."""
+    OpenEXR.File(header, channels).write(fh)
+
+
+def write_exr(image: Image, path) -> None:
+    """Write ``image`` to ``path`` (SPEC §4), atomically.
+
+    Raises an OSError naming ``path`` if its directory is missing or not writable;
+    a failure while encoding leaves ``path`` untouched and no temporary file.
+    """
+    header = _header(image)
+    channels = {name: image.file_channel(name) for name in image.channel_names}
+    with atomic_output(path) as fh:
+        _encode(header, channels, fh)
+
+
+# --- reading -------------------------------------------------------------------
+
+
+@contextlib.contextmanager
+def _quiet_native_output():
+    """Silence and capture what the OpenEXR library prints on fds 1 and 2.
+
+    The binding prints "Warning: Exception raised reading pixel data ..." to stdout
+    and the C core its error to stderr on a corrupt file; we report one line
+    ourselves instead. Yields a list that receives the captured text.
+    """
+    captured: list[str] = []
+    # The binding's warning goes through Python's sys.stdout (pybind11 py::print) ...
+    py_sink = io.StringIO()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    with contextlib.redirect_stdout(py_sink), contextlib.redirect_stderr(py_sink):
+        try:
+            for stream in (sys.__stdout__, sys.__stderr__):
+                if stream is not None:
+                    stream.flush()
+            saved = [os.dup(1), os.dup(2)]
+        except (OSError, ValueError, AttributeError):  # no real fds (embedded interpreter)
+            saved = None
+        if saved is None:
+            try:
+                yield captured
+            finally:
+                captured.append(py_sink.getvalue())
+            return
+        # ... and the C core's error text straight to file descriptor 2.
+        with tempfile.TemporaryFile() as sink:
+            try:
+                os.dup2(sink.fileno(), 1)
+                os.dup2(sink.fileno(), 2)
+                yield captured
+            finally:
+                os.dup2(saved[0], 1)
+                os.dup2(saved[1], 2)
+                os.close(saved[0])
+                os.close(saved[1])
+                sink.seek(0)
+                captured.append(py_sink.getvalue())
+                captured.append(sink.read().decode("utf-8", "replace"))
+
+
+def _native_detail(captured: list[str], exc: BaseException) -> str:
+    """A short one-line reason from the library's exception and its printed text."""
+    lines = [ln.strip() for text in captured for ln in text.splitlines() if ln.strip()]
+    for ln in lines:
+        if "EXR_ERR" in ln:
+            return ln.split(": ", 1)[-1]
+    return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+
+
+def _open_pixels(path: Path):
+    """(header dict, {name: OpenEXR.Channel}) of part 0; SceneError on any failure."""
+    if not path.exists():
+        raise SceneError(f"{path}: no such file")
+    if path.is_dir():
+        raise SceneError(f"{path}: is a directory, not an EXR file")
+    with _quiet_native_output() as captured:
+        try:
+            with OpenEXR.File(str(path), separate_channels=True) as f:
+                header = dict(f.header())
+                channels = dict(f.channels())
+                planes = {name: np.array(ch.pixels) for name, ch in channels.items()}
+                types = {name: ch.type() for name, ch in channels.items()}
+                parts = len(f.parts)
+            error = None
+        except Exception as exc:  # the binding raises RuntimeError / ValueError
+            error = exc
+    if error is not None:
+        raise SceneError(f"{path}: not a readable EXR file ({_native_detail(captured, error)})") from None
+    return header, planes, types, parts
+
+
+def _header_float(header: dict, key: str, default: float) -> float:
+    if key not in header:
+        return default
+    return float(np.asarray(header[key], dtype=np.float64).ravel()[0])
+
+
+def _read_manifest(manifest) -> dict[int, str]:
+    result: dict[int, str] = {}
+    if manifest is None:
+        return result
+    index = manifest.find(MANIFEST_CHANNEL)
+    if index >= manifest.size():
+        return result
+    for entry in manifest[index]:
+        text = list(entry.text())
+        result[int(entry.id())] = text[0] if len(text) == 1 else "/".join(text)
+    return result
+
+
+def read_exr(path) -> Image:
+    """Read an EXR written by :func:`write_exr` (or any EXR with R, G, B, A).
+
+    Returns an :class:`Image` with absolute float64 eventTime / sourceTime
+    (channel + spacetime:timeOrigin). Channels absent from the file are filled with
+    their background values and ``Image.channels`` lists those present. A
+    missing, corrupt or non-EXR file, or one without R, G, B, A, raises
+    :class:`warp_st.SceneError` naming the file.
+    """
+    path = Path(path)
+    header, planes, types, _ = _open_pixels(path)
+    missing = [n for n in REQUIRED_CHANNELS if n not in planes]
+    if missing:
+        raise SceneError(f"{path}: missing channel(s) {', '.join(missing)}")
+    known = {}
+    for name in CHANNEL_NAMES:
+        if name not in planes:
+            continue
+        spec = channel_spec(name)
+        kind = str(types[name]).rsplit(".", 1)[-1]
+        if spec.pixel_type == "UINT" and kind != "UINT":
+            raise SceneError(f"{path}: channel {name} is {kind}, expected UINT")
+        if spec.pixel_type == "FLOAT" and kind == "UINT":
+            raise SceneError(f"{path}: channel {name} is UINT, expected FLOAT")
+        known[name] = planes[name]  # HALF from other tools is widened to float32 below
+    time_origin = _header_float(header, ATTR_TIME_ORIGIN, 0.0)
+    metadata = {
+        key[len(ATTR_PREFIX):]: value
+        for key, value in header.items()
+        if key.startswith(ATTR_PREFIX) and isinstance(value, str) and key != ATTR_PRECISION
+    }
+    try:
+        return Image.from_file_channels(
+            known,
+            time_origin=time_origin,
+            camera_time=_header_float(header, ATTR_CAMERA_TIME, time_origin),
+            frame=_header_float(header, ATTR_FRAME, float("nan")),
+            precision=str(header.get(ATTR_PRECISION, "")),
+            id_manifest=_read_manifest(header.get(ATTR_ID_MANIFEST)),
+            metadata=metadata,
+        )
+    except (KeyError, ValueError) as exc:
+        raise SceneError(f"{path}: {exc}") from None
+
+
+def _display(value) -> str:
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind == "f" and value.size == 1:
+            return repr(float(value.ravel()[0]))
+        return np.array2string(value, separator=", ")
+    if isinstance(value, tuple):
+        return "(" + ", ".join(_display(v) for v in value) + ")"
+    if isinstance(value, (OpenEXR.Compression, OpenEXR.LineOrder, OpenEXR.Storage)):
+        return str(value).rsplit(".", 1)[-1]
+    if isinstance(value, OpenEXR.IDManifest):
+        groups = [sorted(value[i].getChannels()) for i in range(value.size())]
+        return f"ID manifest, {value.size()} channel group(s): {groups}"
+    if isinstance(value, list):  # the channel list
+        return ", ".join(getattr(c, "name", str(c)) for c in value)
+    return str(value)
+
+
+def read_header(path) -> dict[str, str]:
+    """Every header attribute of part 0 as display text (for ``warp-st inspect``).
+
+    Doubles print with repr (shortest exact form). SceneError if unreadable.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError(f"{path}: no such file")
+    with _quiet_native_output() as captured:
+        try:
+            with OpenEXR.File(str(path), header_only=True) as f:
+                header = dict(f.header())
+            error = None
+        except Exception as exc:
+            error = exc
+    if error is not None:
+        raise SceneError(f"{path}: not a readable EXR file ({_native_detail(captured, error)})") from None
+    return {key: _display(header[key]) for key in sorted(header)}
+
+
+def is_complete_exr(path) -> bool:
+    """True if ``path`` is a readable EXR with R, G, B, A whose pixels all decode.
+
+    Used by ``warp-st render --resume`` to skip frames already written.
+    """
+    path = Path(path)
+    try:
+        header, planes, _, parts = _open_pixels(path)
+    except SceneError:
+        return False
+    if parts < 1 or any(n not in planes for n in REQUIRED_CHANNELS):
+        return False
+    shapes = {planes[n].shape for n in REQUIRED_CHANNELS}
+    return len(shapes) == 1 and all(s > 0 for s in shapes.pop())

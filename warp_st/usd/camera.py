@@ -1,0 +1,126 @@
+"""The camera at a USD time code (SPEC §3): ``Scene.camera_state``."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom
+
+from ..conventions import LightSpeed
+from ..scene import CameraState, SceneError
+from . import attributes as A
+from .attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api
+from .stage import open_stage
+
+__all__ = ["CameraEvaluator", "lab_from_camera"]
+
+
+class CameraEvaluator:
+    """``camera_state(path, frame) -> CameraState``: a camera at a USD time code (SPEC §3).
+
+    path None selects the scene's default camera. Holds the open stage; pickling
+    keeps only how to reopen it: the file path when the scene was loaded from a
+    path (``reopen``), else the flattened text of the stage that was passed in
+    (so in-memory edits survive). The stage is reopened on first use.
+    """
+
+    def __init__(self, stage: Usd.Stage, where: Where, cameras: tuple[str, ...],
+                 default_camera: str | None, *, reopen: str | None = None, no_references: bool = False):
+        self._stage = stage
+        self.where = where
+        self.cameras = cameras
+        self.default_camera = default_camera
+        self.reopen = reopen
+        self.no_references = no_references
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["_stage"] = None
+        if self.reopen is None and self._stage is not None:
+            state["_text"] = self._stage.ExportToString()
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+
+    def stage(self) -> Usd.Stage:
+        if self._stage is None:
+            if self.reopen is not None:
+                self._stage, _ = open_stage(self.reopen, no_references=self.no_references)
+            else:
+                layer = Sdf.Layer.CreateAnonymous(".usda")
+                layer.ImportFromString(self.__dict__.pop("_text"))
+                self._stage = Usd.Stage.Open(layer)
+        return self._stage
+
+    def __call__(self, path: str | None = None, frame: float = 0.0) -> CameraState:
+        w = self.where
+        path = path or self.default_camera
+        if path is None:
+            raise SceneError.at(w.file, None, None, "the stage has no camera (UsdGeom.Camera)")
+        prim = self.stage().GetPrimAtPath(str(path))
+        if not prim or not prim.IsA(UsdGeom.Camera):
+            known = ", ".join(self.cameras) or "none"
+            raise SceneError.at(w.file, str(path), None, f"no such camera (cameras: {known})")
+        frame = float(frame)
+        if not math.isfinite(frame):
+            raise SceneError.at(w.file, str(path), None, f"frame must be finite, got {frame}")
+        tc = Usd.TimeCode(frame)
+        projection = UsdGeom.Camera(prim).GetProjectionAttr().Get(tc)
+        if projection != UsdGeom.Tokens.perspective:
+            raise w.error(prim, "projection", f"must be perspective, got {projection!r}")
+
+        world = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(tc)
+        position = np.array(world.ExtractTranslation(), dtype=np.float64)
+        rotation = lab_from_camera(world)
+        if rotation is None:
+            raise w.error(prim, "xformOpOrder", "the world transform is singular")
+
+        # t_c: spacetime:time at this time code, else the time code itself (SPEC §3).
+        time = A.real(w, prim, "spacetime:time", None, time=tc)
+        time = frame if time is None else time
+        light_speed = A.token(w, prim, "spacetime:lightSpeed", tuple(s.value for s in LightSpeed),
+                              LightSpeed.FINITE.value, time=tc)
+        velocity, decoupled = np.zeros(3), False
+        if has_api(prim, SPACETIME_BODY_API):
+            # A moving camera: its world position o holds at t_ref; at t_c it is o + v (t_c - t_ref).
+            velocity, t_ref, _, decoupled = body_kinematics(w, prim)
+            position = position + velocity * (time - t_ref)
+
+        def positive(name, fallback):
+            return A.real(w, prim, name, fallback, time=tc, positive=True)
+
+        return CameraState(
+            prim_path=str(prim.GetPath()),
+            time=float(time),
+            position=position,
+            rotation=rotation,
+            focal_length=positive("focalLength", 50.0),
+            horizontal_aperture=positive("horizontalAperture", 20.955),
+            vertical_aperture=positive("verticalAperture", 15.2908),
+            horizontal_aperture_offset=A.real(w, prim, "horizontalApertureOffset", 0.0, time=tc),
+            vertical_aperture_offset=A.real(w, prim, "verticalApertureOffset", 0.0, time=tc),
+            light_speed=LightSpeed(light_speed),
+            velocity=velocity,
+            decoupled=decoupled,
+        )
+
+
+def lab_from_camera(world: Gf.Matrix4d) -> np.ndarray | None:
+    """Orthonormal lab_from_camera (columns = camera +X, +Y, +Z in the lab).
+
+    USD matrices act on row vectors, so rows 0..2 are the images of the local axes.
+    Scale and shear are removed by Gram-Schmidt that keeps the view axis (Z) exact
+    and the up axis (Y) in its authored plane.
+    """
+    m = np.array(world, dtype=np.float64).reshape(4, 4)
+    z = m[2, :3]
+    if not np.linalg.norm(z) > 0.0:
+        return None
+    z = z / np.linalg.norm(z)
+    y = m[1, :3] - np.dot(m[1, :3], z) * z
+    if not np.linalg.norm(y) > 1e-12:
+        return None
+    y = y / np.linalg.norm(y)
+    x = np.cross(y, z)
+    return np.column_stack([x, y, z])

@@ -1,0 +1,303 @@
+"""Gprims → world-space triangle surfaces, and their UsdPreviewSurface materials.
+
+Everything is read at the default time code (the 4D database never changes
+between frames) and returned in float64 world space at the body's reference time
+(SPEC §2). USD matrices act on row vectors: ``p_world = p_local @ M[:3, :3] + M[3, :3]``.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from pxr import Gf, Usd, UsdGeom, UsdShade
+
+from .. import tessellate
+from ..scene import Material, Surface
+from . import attributes as A
+from .attributes import DEFAULT_TIME, Where
+
+__all__ = [
+    "SUPPORTED_GPRIMS",
+    "is_hidden",
+    "fan_triangulate",
+    "transform_surface",
+    "MaterialReader",
+    "GprimReader",
+]
+
+#: The gprim types turned into surfaces (SPEC §2). Other gprims are skipped with a warning.
+SUPPORTED_GPRIMS = (UsdGeom.Mesh, UsdGeom.Sphere, UsdGeom.Cube)
+
+#: Prims visited below a prototype root: "over" prototypes are allowed, classes are not.
+_PROTOTYPE_PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimIsActive & Usd.PrimIsLoaded & ~Usd.PrimIsAbstract)
+
+
+def is_hidden(prim) -> bool:
+    """True when the prim (and so its whole subtree) is not rendered.
+
+    ``visibility = invisible`` and the ``guide`` / ``proxy`` purposes hide a subtree
+    (a final-frame renderer draws the ``default`` and ``render`` purposes only).
+    """
+    if not prim.IsA(UsdGeom.Imageable):
+        return False
+    img = UsdGeom.Imageable(prim)
+    if img.GetVisibilityAttr().Get(DEFAULT_TIME) == UsdGeom.Tokens.invisible:
+        return True
+    return img.GetPurposeAttr().Get(DEFAULT_TIME) in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
+
+
+def fan_triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    """Fan-triangulate polygons: face f with n >= 3 vertices gives (v0, vk, vk+1), k = 1..n-2.
+
+    counts: vertices per face, shape (F,); indices: flattened face vertex indices.
+    Faces with fewer than 3 vertices are skipped. Returns (T, 3) int64.
+    """
+    counts = np.asarray(counts, dtype=np.int64)
+    offsets = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+    tri_per_face = np.where(counts >= 3, counts - 2, 0)
+    total = int(tri_per_face.sum())
+    face = np.repeat(np.arange(len(counts)), tri_per_face)
+    k = np.arange(total) - np.repeat(np.cumsum(tri_per_face) - tri_per_face, tri_per_face)
+    base = offsets[face]
+    corners = np.stack([base, base + k + 1, base + k + 2], axis=1)
+    return np.asarray(indices, dtype=np.int64)[corners].reshape(-1, 3)
+
+
+def transform_surface(points, triangles, normals, world_from_local: Gf.Matrix4d):
+    """Apply a USD (row-vector) matrix: points affinely, normals by the inverse transpose.
+
+    A mirroring transform (negative determinant) reverses the triangle winding so
+    that the orientation stays consistent with the authored one.
+    """
+    m = np.array(world_from_local, dtype=np.float64).reshape(4, 4)
+    linear, shift = m[:3, :3], m[3, :3]
+    world = np.asarray(points, dtype=np.float64) @ linear + shift
+    det = float(np.linalg.det(linear))
+    if normals is not None:
+        if abs(det) > 1e-300:
+            n = np.asarray(normals, dtype=np.float64) @ np.linalg.inv(linear).T
+            length = np.linalg.norm(n, axis=1, keepdims=True)
+            normals = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+        else:
+            normals = None
+    if det < 0:
+        triangles = triangles[:, [0, 2, 1]]
+    return world, np.ascontiguousarray(triangles, dtype=np.int64), normals
+
+
+class MaterialReader:
+    """Bound UsdPreviewSurface → :class:`Material`, with displayColor as the fallback."""
+
+    def __init__(self, where: Where):
+        self.where = where
+        self._by_material: dict[str, Material | None] = {}
+
+    def __call__(self, prim) -> Material:
+        material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(UsdShade.Tokens.full)
+        if material:
+            key = str(material.GetPath())
+            if key not in self._by_material:
+                self._by_material[key] = self._preview_surface(material)
+            if self._by_material[key] is not None:
+                return self._by_material[key]
+        return self._display_color(prim)
+
+    def _preview_surface(self, material) -> Material | None:
+        source = material.ComputeSurfaceSource()
+        shader = source[0] if isinstance(source, tuple) else source
+        if not shader or shader.GetShaderId() != "UsdPreviewSurface":
+            return None
+        defaults = Material()
+        return Material(
+            diffuse=tuple(self._input(shader, "diffuseColor", 3, defaults.diffuse)),
+            emissive=tuple(self._input(shader, "emissiveColor", 3, defaults.emissive)),
+            metallic=float(np.clip(self._input(shader, "metallic", 1, (defaults.metallic,))[0], 0.0, 1.0)),
+        )
+
+    def _input(self, shader, name: str, size: int, fallback):
+        """The input's value, following connections to the value-producing attribute.
+
+        A connection to another shader's output (a texture) cannot be evaluated
+        here; the input's own authored value, else the UsdPreviewSurface default, is used.
+        """
+        inp = shader.GetInput(name)
+        if not inp:
+            return [float(x) for x in fallback]
+        attr = inp.GetAttr()
+        producers = inp.GetValueProducingAttributes()
+        if producers and not UsdShade.Output.IsOutput(producers[0]):
+            attr = producers[0]
+        prim, attr_name = attr.GetPrim(), attr.GetName()
+        if size == 1:
+            value = A.real(self.where, prim, attr_name, fallback[0])
+            return [value]
+        return [float(x) for x in A.vector(self.where, prim, attr_name, size, fallback)]
+
+    def _display_color(self, prim) -> Material:
+        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayColor")
+        if primvar and primvar.HasValue():
+            attr = primvar.GetAttr()
+            colors = A.vec3_array(self.where, attr.GetPrim(), attr.GetName())
+            if colors is not None and len(colors):
+                first = 0
+                if primvar.IsIndexed():
+                    indices = primvar.GetIndices(DEFAULT_TIME)
+                    first = int(indices[0]) if len(indices) and 0 <= indices[0] < len(colors) else 0
+                return Material(diffuse=tuple(float(c) for c in colors[first]))
+        return Material()
+
+
+class GprimReader:
+    """Mesh / Sphere / Cube / PointInstancer prims → :class:`Surface` objects in world space."""
+
+    def __init__(self, where: Where, xform_cache: UsdGeom.XformCache):
+        self.where = where
+        self.xf = xform_cache
+        self.material = MaterialReader(where)
+        self._warned: set[str] = set()
+
+    # -- single gprims ------------------------------------------------------------
+    def surface(self, prim, world_from_local: Gf.Matrix4d | None = None, label: str | None = None):
+        """The prim's triangles in world space, or None for an unsupported / empty gprim."""
+        local = self._local_mesh(prim)
+        if local is None:
+            return None
+        points, triangles, normals = local
+        if world_from_local is None:
+            world_from_local = self.xf.GetLocalToWorldTransform(prim)
+        points, triangles, normals = transform_surface(points, triangles, normals, world_from_local)
+        return Surface(
+            prim_path=label or str(prim.GetPath()),
+            points=points,
+            triangles=triangles,
+            material=self.material(prim),
+            normals=normals,
+        )
+
+    def _local_mesh(self, prim):
+        w = self.where
+        if prim.IsA(UsdGeom.Sphere):
+            radius = A.real(w, prim, "radius", 1.0, positive=True)
+            return tessellate.sphere(radius)
+        if prim.IsA(UsdGeom.Cube):
+            points, triangles = tessellate.cube(A.real(w, prim, "size", 2.0, positive=True))
+            return points, triangles, None
+        if prim.IsA(UsdGeom.Mesh):
+            return self._mesh(prim)
+        kind = prim.GetTypeName()
+        if kind not in self._warned:
+            self._warned.add(kind)
+            warnings.warn(f"{w.file}: {prim.GetPath()}: {kind} gprims are not rendered "
+                          f"(supported: Mesh, Sphere, Cube)", stacklevel=3)
+        return None
+
+    def _mesh(self, prim):
+        """points / faceVertexCounts / faceVertexIndices, validated, fan-triangulated."""
+        w = self.where
+        points = A.vec3_array(w, prim, "points")
+        counts = A.int_array(w, prim, "faceVertexCounts")
+        indices = A.int_array(w, prim, "faceVertexIndices")
+        points = np.zeros((0, 3)) if points is None else points
+        counts = np.zeros(0, np.int64) if counts is None else counts
+        indices = np.zeros(0, np.int64) if indices is None else indices
+        if (counts < 0).any():
+            raise w.error(prim, "faceVertexCounts", f"has a negative count at face {int(np.argmax(counts < 0))}")
+        if int(counts.sum()) != len(indices):
+            raise w.error(prim, "faceVertexCounts",
+                          f"sums to {int(counts.sum())} but faceVertexIndices has {len(indices)} entries")
+        bad = (indices < 0) | (indices >= len(points))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise w.error(prim, "faceVertexIndices",
+                          f"entry {i} = {int(indices[i])} is out of range for {len(points)} points")
+        triangles = fan_triangulate(counts, indices)
+        if len(triangles) == 0:
+            return None
+        if UsdGeom.Mesh(prim).GetOrientationAttr().Get(DEFAULT_TIME) == UsdGeom.Tokens.leftHanded:
+            triangles = triangles[:, [0, 2, 1]]
+        return points, triangles, self._vertex_normals(prim, len(points))
+
+    def _vertex_normals(self, prim, n_points: int):
+        """Per-point normals (vertex / varying interpolation) when authored, else None (flat)."""
+        primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("normals")
+        if primvar and primvar.HasAuthoredValue():
+            attr, interp = primvar.GetAttr(), primvar.GetInterpolation()
+        else:
+            attr = prim.GetAttribute("normals")
+            if not attr or not attr.HasAuthoredValue():
+                return None
+            interp = UsdGeom.Mesh(prim).GetNormalsInterpolation()
+        if interp not in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
+            return None
+        normals = A.vec3_array(self.where, prim, attr.GetName())
+        if normals is None or len(normals) != n_points:
+            return None
+        return normals
+
+    # -- point instancers ---------------------------------------------------------
+    def instancer_surfaces(self, prim) -> list[Surface]:
+        """One surface per (visible instance, prototype gprim), in world space."""
+        world = self.xf.GetLocalToWorldTransform(prim)
+        out = []
+        for gprim, local, label in self._instanced_gprims(prim, depth=0):
+            surface = self.surface(gprim, local * world, label)
+            if surface is not None:
+                out.append(surface)
+        return out
+
+    def _instanced_gprims(self, prim, depth: int):
+        """(gprim, gprim-to-instancer matrix, label) for every instance of every prototype gprim.
+
+        The label is the prototype gprim's path followed by the instance index, e.g.
+        ``/World/Trees/Proto/Trunk[12]`` (one index per level of nested instancers).
+        """
+        w = self.where
+        if depth > 8:
+            raise w.error(prim, "prototypes", "point instancers are nested more than 8 deep")
+        instancer = UsdGeom.PointInstancer(prim)
+        prototypes = instancer.GetPrototypesRel().GetForwardedTargets()
+        proto_indices = A.int_array(w, prim, "protoIndices")
+        if proto_indices is None or len(proto_indices) == 0:
+            return []
+        bad = (proto_indices < 0) | (proto_indices >= len(prototypes))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise w.error(prim, "protoIndices",
+                          f"entry {i} = {int(proto_indices[i])} is out of range for {len(prototypes)} prototypes")
+        xforms = instancer.ComputeInstanceTransformsAtTime(
+            DEFAULT_TIME, DEFAULT_TIME, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
+        )
+        if xforms is None or len(xforms) != len(proto_indices):
+            raise w.error(prim, "positions", "instance transforms could not be computed (positions, "
+                          "orientations, scales and protoIndices must have matching lengths)")
+        mask = instancer.ComputeMaskAtTime(DEFAULT_TIME) or []
+        per_prototype = [self._prototype_gprims(prim.GetStage().GetPrimAtPath(p), depth) for p in prototypes]
+        out = []
+        for i, (instance_xf, j) in enumerate(zip(xforms, proto_indices)):
+            if len(mask) and not mask[i]:
+                continue
+            for gprim, local, label in per_prototype[int(j)]:
+                out.append((gprim, local * instance_xf, f"{label}[{i}]"))
+        return out
+
+    def _prototype_gprims(self, root, depth: int):
+        """(gprim, gprim-to-root matrix excluding root's own transform, label) below a prototype."""
+        if not root:
+            return []
+        out = []
+        it = iter(Usd.PrimRange(root, _PROTOTYPE_PREDICATE))
+        for prim in it:
+            if is_hidden(prim):
+                it.PruneChildren()
+                continue
+            if prim.IsA(UsdGeom.PointInstancer) or prim.IsA(UsdGeom.Gprim):
+                if prim == root:
+                    rel = Gf.Matrix4d(1.0)
+                else:
+                    rel, _ = self.xf.ComputeRelativeTransform(prim, root)
+                if prim.IsA(UsdGeom.PointInstancer):
+                    out.extend((g, m * rel, lbl) for g, m, lbl in self._instanced_gprims(prim, depth + 1))
+                    it.PruneChildren()
+                else:
+                    out.append((prim, rel, str(prim.GetPath())))
+        return out

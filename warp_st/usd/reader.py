@@ -1,0 +1,229 @@
+"""USD stage → :class:`warp_st.scene.Scene` (SPEC §2 and §3).
+
+One traversal in stage order (instance proxies included) collects:
+
+- bodies: each prim with ``SpacetimeBodyAPI`` owns every gprim below it (the
+  nearest such ancestor wins); a gprim with no such ancestor is a body of its own,
+  at rest, with unbounded lifetime. Bodies with no visible geometry are dropped,
+  so objectId = 1 + index counts only what can be seen. A camera is never a body.
+- cameras (UsdGeom.Camera), lights (UsdLux SphereLight / DistantLight) and the
+  render settings (UsdRender.Settings).
+
+Everything but the camera is read at the default time code: the 4D database is
+static and animation comes only from advancing the camera's time. The camera is
+evaluated per frame by :class:`~warp_st.usd.camera.CameraEvaluator`
+(``Scene.camera_state``).
+
+Module map: ``stage`` opens files, ``attributes`` reads typed and validated
+values, ``geometry`` turns gprims into world-space triangles, ``camera``
+evaluates the camera per frame.
+"""
+from __future__ import annotations
+
+import math
+import os
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender
+
+from ..conventions import Precision
+from ..scene import Body, Light, RenderSettings, Scene, SceneError, Surface
+from . import attributes as A
+from .attributes import DEFAULT_TIME, SPACETIME_BODY_API, Where, body_kinematics, has_api
+from .camera import CameraEvaluator
+from .geometry import GprimReader, is_hidden
+from .stage import open_stage
+
+__all__ = ["load_scene", "open_stage", "CameraEvaluator", "body_kinematics"]
+
+_PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+
+
+# -- bodies ---------------------------------------------------------------------------
+
+@dataclass
+class _BodyBuilder:
+    prim_path: str
+    origin: np.ndarray
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    reference_time: float = 0.0
+    lifetime: tuple[float, float] = (-math.inf, math.inf)
+    decoupled: bool = False
+    surfaces: list[Surface] = field(default_factory=list)
+
+    def build(self) -> Body:
+        return Body(self.prim_path, tuple(self.surfaces), self.origin, self.velocity,
+                    self.reference_time, self.lifetime, self.decoupled)
+
+
+def _translation(matrix: Gf.Matrix4d) -> np.ndarray:
+    return np.array(matrix.ExtractTranslation(), dtype=np.float64)
+
+
+# -- the stage reader -------------------------------------------------------------------
+class _StageReader:
+    def __init__(self, stage: Usd.Stage, where: Where):
+        self.stage = stage
+        self.where = where
+        self.xf = UsdGeom.XformCache(DEFAULT_TIME)
+        self.gprims = GprimReader(where, self.xf)
+        self.bodies: list[_BodyBuilder] = []
+        self.lights: list[Light] = []
+        self.cameras: list[str] = []
+        self.settings_prims: list = []
+        self._warned: set[str] = set()
+
+    def read(self, *, reopen: str | None = None, no_references: bool = False) -> Scene:
+        self._traverse()
+        settings = self._render_settings()
+        cameras = tuple(self.cameras)
+        default_camera = settings.camera or (cameras[0] if cameras else None)
+        frame_range = None
+        if self.stage.HasAuthoredTimeCodeRange():
+            frame_range = (float(self.stage.GetStartTimeCode()), float(self.stage.GetEndTimeCode()))
+        return Scene(
+            source=self.where.file,
+            bodies=tuple(b.build() for b in self.bodies if b.surfaces),
+            lights=tuple(self.lights),
+            cameras=cameras,
+            settings=settings,
+            camera_state=CameraEvaluator(self.stage, self.where, cameras, default_camera,
+                                         reopen=reopen, no_references=no_references),
+            up_axis=str(UsdGeom.GetStageUpAxis(self.stage)),
+            frame_range=frame_range,
+            default_camera=default_camera,
+        )
+
+    def _traverse(self) -> None:
+        """Depth-first, pre-order: a subtree is contiguous, so hidden subtrees and
+        body ownership are tracked with a path prefix and a stack."""
+        hidden: Sdf.Path | None = None
+        owners: list[tuple[Sdf.Path, _BodyBuilder]] = []  # enclosing SpacetimeBodyAPI prims
+        it = iter(Usd.PrimRange(self.stage.GetPseudoRoot(), _PREDICATE))
+        for prim in it:
+            if prim.IsPseudoRoot():
+                continue
+            path = prim.GetPath()
+            if hidden is not None and not path.HasPrefix(hidden):
+                hidden = None
+            while owners and not path.HasPrefix(owners[-1][0]):
+                owners.pop()
+            if prim.IsA(UsdGeom.Camera):
+                self.cameras.append(str(path))
+                if has_api(prim, SPACETIME_BODY_API):
+                    body_kinematics(self.where, prim)  # validated now, used per frame
+                continue
+            if prim.IsA(UsdRender.Settings):
+                self.settings_prims.append(prim)
+                it.PruneChildren()
+                continue
+            if hidden is None and is_hidden(prim):
+                hidden = path
+            if has_api(prim, SPACETIME_BODY_API):
+                v, t_ref, life, decoupled = body_kinematics(self.where, prim)
+                body = _BodyBuilder(str(path), _translation(self.xf.GetLocalToWorldTransform(prim)),
+                                    v, t_ref, life, decoupled)
+                owners.append((path, body))
+                self.bodies.append(body)
+            if hidden is not None:
+                continue
+            if prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
+                self._light(prim)
+            elif prim.IsA(UsdGeom.PointInstancer):
+                self._owner(owners, prim).surfaces.extend(self.gprims.instancer_surfaces(prim))
+                it.PruneChildren()  # prototypes are drawn only through their instances
+            elif prim.IsA(UsdGeom.Gprim):
+                surface = self.gprims.surface(prim)
+                if surface is not None:
+                    self._owner(owners, prim).surfaces.append(surface)
+
+    def _owner(self, owners: list[tuple[Sdf.Path, _BodyBuilder]], prim) -> _BodyBuilder:
+        """The nearest enclosing body, else a new body at rest at the prim's world origin."""
+        if owners:
+            return owners[-1][1]
+        body = _BodyBuilder(str(prim.GetPath()), _translation(self.xf.GetLocalToWorldTransform(prim)))
+        self.bodies.append(body)
+        return body
+
+    # -- lights ---------------------------------------------------------------------
+    def _light(self, prim) -> None:
+        """SphereLight: a point at its world position; DistantLight: from its local +Z (SPEC §3)."""
+        w = self.where
+        if not (prim.IsA(UsdLux.SphereLight) or prim.IsA(UsdLux.DistantLight)):
+            kind = prim.GetTypeName()
+            if kind not in self._warned:
+                self._warned.add(kind)
+                warnings.warn(f"{w.file}: {prim.GetPath()}: {kind} is not supported (SphereLight, "
+                              "DistantLight) and is ignored", stacklevel=2)
+            return
+        intensity = A.real(w, prim, "inputs:intensity", 1.0, minimum=0.0)
+        exposure = A.real(w, prim, "inputs:exposure", 0.0)
+        color = A.vector(w, prim, "inputs:color", 3, (1.0, 1.0, 1.0))
+        if A.boolean(w, prim, "inputs:enableColorTemperature", False):
+            kelvin = A.real(w, prim, "inputs:colorTemperature", 6500.0, positive=True)
+            color = color * np.array(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
+        radiance = tuple(float(c) for c in intensity * color * 2.0**exposure)
+        world = self.xf.GetLocalToWorldTransform(prim)
+        if prim.IsA(UsdLux.SphereLight):
+            position = tuple(float(c) for c in _translation(world))
+            self.lights.append(Light("sphere", radiance, position=position, prim_path=str(prim.GetPath())))
+            return
+        z = np.array(world.GetRow3(2), dtype=np.float64)
+        if not np.linalg.norm(z) > 0.0:
+            raise w.error(prim, "xformOpOrder", "the world transform is singular (no +Z axis)")
+        direction = tuple(float(c) for c in z / np.linalg.norm(z))
+        self.lights.append(Light("distant", radiance, direction=direction, prim_path=str(prim.GetPath())))
+
+    # -- render settings ------------------------------------------------------------
+    def _render_settings(self) -> RenderSettings:
+        w = self.where
+        prim = None
+        chosen = self.stage.GetMetadata("renderSettingsPrimPath") or ""
+        if chosen:
+            prim = self.stage.GetPrimAtPath(chosen)
+            if not prim or not prim.IsA(UsdRender.Settings):
+                raise SceneError.at(w.file, None, "renderSettingsPrimPath",
+                                    f"{chosen} is not a UsdRender.Settings prim")
+        elif self.settings_prims:
+            prim = self.settings_prims[0]
+        if prim is None:
+            return RenderSettings()
+        resolution = A.int2(w, prim, "resolution")
+        if resolution is not None and min(resolution) <= 0:
+            raise w.error(prim, "resolution", f"must be positive, got {resolution}")
+        camera = None
+        targets = UsdRender.Settings(prim).GetCameraRel().GetForwardedTargets()
+        if targets:
+            target = self.stage.GetPrimAtPath(targets[0])
+            if not target or not target.IsA(UsdGeom.Camera):
+                raise w.error(prim, "camera", f"{targets[0]} is not a UsdGeom.Camera")
+            camera = str(targets[0])
+        precision = A.token(w, prim, "spacetime:precision", tuple(p.value for p in Precision))
+        return RenderSettings(
+            resolution=resolution,
+            camera=camera,
+            max_depth=A.integer(w, prim, "spacetime:maxDepth", minimum=0),
+            samples=A.integer(w, prim, "spacetime:samples", minimum=1),
+            shutter=A.real(w, prim, "spacetime:shutter", minimum=0.0),
+            precision=Precision(precision) if precision else None,
+            background=_tuple(A.vector(w, prim, "spacetime:background", 3)),
+            prim_path=str(prim.GetPath()),
+        )
+
+
+def _tuple(v):
+    return None if v is None else tuple(float(c) for c in v)
+
+
+def load_scene(source, *, no_references: bool = False) -> Scene:
+    """Read a USD stage (a path or a ``Usd.Stage``) into a :class:`Scene`.
+
+    Raises :class:`SceneError` (one line naming the file, prim and attribute) for
+    anything that cannot be rendered as the stage says. ``no_references=True``
+    composes only the file's own layers (see :func:`open_stage`).
+    """
+    stage, where = open_stage(source, no_references=no_references)
+    reopen = None if isinstance(source, Usd.Stage) else os.path.abspath(os.fspath(source))
+    return _StageReader(stage, where).read(reopen=reopen, no_references=no_references)
