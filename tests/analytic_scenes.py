@@ -326,8 +326,9 @@ def oracle_image(case: SphereCase, cam: CameraState | None = None) -> OracleImag
     outer = oracle_hit(case, d)
     inner = oracle_hit(case, d, radius=case.radius - gap)
     v_c = np.asarray(case.cam_velocity, dtype=np.float64)
-    # Z: the light's path length in the camera's rest frame = the camera-frame time of
-    # the lookback s (1, -n)... i.e. s gamma_c (1 + v_c·n) (1 for a camera at rest).
+    # Z: the light's path length in the camera's rest frame = the camera-frame time
+    # component of the separation s (1, -n) from the hit to the camera event:
+    # gamma_c (s + v_c·(s n)) = s gamma_c (1 + v_c·n)  (just s for a camera at rest).
     scale = lorentz.gamma(v_c) * (1.0 + d @ v_c)
     return OracleImage(case, cam, d, outer, inner, gap, np.broadcast_to(scale, d.shape[:-1]))
 

@@ -123,7 +123,16 @@ def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bo
 
 
 def _extend_for_shadows(scene, balls, windows, *, infinite):
-    """Widen the windows to cover shadow rays leaving any possible hit event."""
+    """Widen the windows to cover shadow rays leaving any possible hit event.
+
+    Hit events H have t_H in [T_lo, T_hi] and x_H in a ball (C, R) (the swept balls
+    of every visible body). A shadow ray towards a distant light l conserves the
+    phase t + x.l along its null line; towards a point light L it lies on the future
+    lightcone of the emission event, so psi = t - |x - L| is conserved. An occluder
+    is thus reachable only while its phase (or psi) is within the range the hit
+    events produce, and not after T_hi. Both are monotone in t for |v| < 1; a body
+    moving at |v| >= 1 keeps the bound of a camera anywhere in the hit ball.
+    """
     lows, highs = [], []
     for body, (m0, rho), win in zip(scene.bodies, balls, windows):
         if win is None:
@@ -139,8 +148,47 @@ def _extend_for_shadows(scene, balls, windows, *, infinite):
     t_hi = max(w[1] for w in windows if w is not None)
     out = []
     for body, (m0, rho), win in zip(scene.bodies, balls, windows):
-        fat = rho + hit_radius
-        for t_c in (t_lo, t_hi):
-            win = _hull(win, frame_window(m0, fat, body.velocity, body.reference_time, t_c, hit_centre, infinite=infinite))
+        v = np.asarray(body.velocity, dtype=np.float64)
+        if infinite:
+            win = _hull(win, (t_lo - rho, t_hi + rho))
+        elif float(np.linalg.norm(v)) >= 1.0:
+            fat = rho + hit_radius
+            for t_c in (t_lo, t_hi):
+                win = _hull(win, frame_window(m0, fat, v, body.reference_time, t_c, hit_centre))
+        else:
+            centre_at = lambda t: m0 + v * (t - body.reference_time)  # noqa: E731
+            for light in scene.lights:
+                if light.kind == "distant":
+                    l = np.asarray(light.direction, dtype=np.float64)
+                    phase = lambda t: t + float(centre_at(t) @ l)  # noqa: E731
+                    k_lo = t_lo + float(hit_centre @ l) - hit_radius - rho
+                else:
+                    L = np.asarray(light.position, dtype=np.float64)
+                    phase = lambda t: t - float(np.linalg.norm(centre_at(t) - L))  # noqa: E731
+                    k_lo = t_lo - float(np.linalg.norm(hit_centre - L)) - hit_radius - rho
+                lo = _solve_increasing(phase, k_lo, t_lo)
+                win = _hull(win, (lo, t_hi + rho))
         out.append(win)
     return out
+
+
+def _solve_increasing(f, target: float, guess: float) -> float:
+    """t with f(t) = target for a strictly increasing f (bisection on a grown bracket)."""
+    step = max(1.0, abs(guess) * 1e-3)
+    lo, hi = guess, guess
+    while f(lo) > target:
+        lo -= step
+        step *= 2.0
+    step = max(1.0, abs(guess) * 1e-3)
+    while f(hi) < target:
+        hi += step
+        step *= 2.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid == lo or mid == hi:
+            break
+        if f(mid) < target:
+            lo = mid
+        else:
+            hi = mid
+    return lo

@@ -232,11 +232,12 @@ def _make_render(scalar, k, trace, Geometry):
             tau = shd.body_gamma[body] * (rel_t - wp.dot(v, rel_x))
         film.proper_time[pixel] = tau
 
-        # D = (k.u_cam)/(k.u_body), k = (1, -n): -k.u = u_t + n.u_x.
-        dop = scalar(1.0)
+        # D = (k.u_cam)/(k.u_body), k = (1, -n): -k.u = u_t + n.u_x. With infinite
+        # light speed only time dilation is left: the limit is u_cam_t / u_body_t.
+        ub = four_velocity(v, shd.body_gamma[body], dec)
+        uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
+        dop = uc[0] / ub[0]
         if cam.finite != 0:
-            ub = four_velocity(v, shd.body_gamma[body], dec)
-            uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
             dop = (uc[0] + n[0] * uc[1] + n[1] * uc[2] + n[2] * uc[3]) / (
                 ub[0] + n[0] * ub[1] + n[1] * ub[2] + n[2] * ub[3]
             )
