@@ -18,7 +18,6 @@ __all__ = [
     "LightSpeed",
     "Precision",
     "MINKOWSKI",
-    "SELF_HIT_EPS",
     "BOX_PAD_ULPS",
 ]
 
@@ -29,12 +28,6 @@ C = 1.0
 
 #: Metric diag(-1, 1, 1, 1) in (t, x, y, z) order.
 MINKOWSKI = np.diag([-1.0, 1.0, 1.0, 1.0])
-
-#: Relative lookback offset for secondary (shadow) rays leaving a surface, so a
-#: ray never re-finds the event it starts from. Relative to the event's distance
-#: from the render origin: float32 keeps ~7 digits, so 1e-4 of the distance
-#: is ~1000 ulps, well above the rounding of the interpolated hit event.
-SELF_HIT_EPS = 1e-4
 
 #: Node boxes are rounded outward by this many ulps after recentring so that a
 #: float64 box always lies inside its kernel-precision copy, with room for the

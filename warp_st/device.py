@@ -35,6 +35,7 @@ class StaticArrays:
         self.vert_normal = wp.array(mesh.vertex_normals.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
         self.tri_normal = wp.array(mesh.tri_normal.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
         self.tri_smooth = wp.array(mesh.tri_smooth, dtype=wp.int32, device=_DEVICE)
+        self.tri_size = wp.array(mesh.tri_size.astype(np_scalar), dtype=k.scalar, device=_DEVICE)
         self.tri_body = wp.array(mesh.tri_body, dtype=wp.int32, device=_DEVICE)
         self.tri_material = wp.array(mesh.tri_material, dtype=wp.int32, device=_DEVICE)
         mats = mesh.materials or ()
@@ -71,6 +72,7 @@ def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: Fl
     g.vert = wp.array((mesh.vertices - origin).astype(ns), dtype=k.vec4, device=_DEVICE)
     g.tet = static.tet
     g.tet_tri = static.tet_tri
+    g.tri_body = static.tri_body
     g.node_lo = wp.array(_outward(bvh.node_lo - origin, ns, -np.inf), dtype=k.vec4, device=_DEVICE)
     g.node_hi = wp.array(_outward(bvh.node_hi - origin, ns, np.inf), dtype=k.vec4, device=_DEVICE)
     g.node_first = static.node_first
@@ -85,6 +87,7 @@ def make_shading(k: Kernels, static: StaticArrays, lights: tuple[Light, ...], or
     s.vert_normal = static.vert_normal
     s.tri_normal = static.tri_normal
     s.tri_smooth = static.tri_smooth
+    s.tri_size = static.tri_size
     s.tri_body = static.tri_body
     s.tri_material = static.tri_material
     s.mat_diffuse = static.mat_diffuse

@@ -37,6 +37,7 @@ class SpacetimeMesh:
     tet_tri: the triangle each tetrahedron was extruded from, (N,), int32.
     tri_normal: unit lab-frame normal of each contracted triangle, (T, 3).
     tri_smooth: 1 where the triangle interpolates vertex normals, (T,), int32.
+    tri_size: longest edge of each contracted triangle, (T,).
     tri_body, tri_material: indices into ``bodies`` / ``materials``, (T,), int32.
     """
 
@@ -46,6 +47,7 @@ class SpacetimeMesh:
     tet_tri: np.ndarray
     tri_normal: np.ndarray
     tri_smooth: np.ndarray
+    tri_size: np.ndarray
     tri_body: np.ndarray
     tri_material: np.ndarray
     materials: tuple
@@ -99,7 +101,7 @@ def extrude_scene(scene: Scene, windows: list[tuple[float, float] | None]) -> Sp
     materials: list = []
     mat_index: dict = {}
     verts, vnorms, tets, tet_tri = [], [], [], []
-    tri_normal, tri_smooth, tri_body, tri_material = [], [], [], []
+    tri_normal, tri_smooth, tri_size, tri_body, tri_material = [], [], [], [], []
     v_base = 0
     t_base = 0
     for b_index, (body, window) in enumerate(zip(scene.bodies, windows)):
@@ -131,6 +133,8 @@ def extrude_scene(scene: Scene, windows: list[tuple[float, float] | None]) -> Sp
             # Triangle normals of the contracted shape (lab frame, constant in time).
             e1 = local[tris[:, 1]] - local[tris[:, 0]]
             e2 = local[tris[:, 2]] - local[tris[:, 0]]
+            e3 = local[tris[:, 2]] - local[tris[:, 1]]
+            tri_size.append(np.sqrt(np.max([(e * e).sum(axis=1) for e in (e1, e2, e3)], axis=0)))
             fn = np.cross(e1, e2)
             fn /= np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-300)
             key = surf.material
@@ -158,6 +162,7 @@ def extrude_scene(scene: Scene, windows: list[tuple[float, float] | None]) -> Sp
         tet_tri=cat(tet_tri, (0,), np.int32),
         tri_normal=cat(tri_normal, (0, 3), np.float64),
         tri_smooth=cat(tri_smooth, (0,), np.int32),
+        tri_size=cat(tri_size, (0,), np.float64),
         tri_body=cat(tri_body, (0,), np.int32),
         tri_material=cat(tri_material, (0,), np.int32),
         materials=tuple(materials),

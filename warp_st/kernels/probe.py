@@ -18,7 +18,7 @@ def make_probe(scalar, vec3, vec4, Geometry, trace, hit_tet, ray_basis):
         out_visits: wp.array(dtype=wp.int32),
     ):
         i = wp.tid()
-        tet, s, _lam, visits, _ovf = trace(geo, origins[i], dirs[i], finite, scalar(0.0), scalar(FAR), -1, 0)
+        tet, s, _lam, visits, _ovf = trace(geo, origins[i], dirs[i], finite, scalar(0.0), scalar(FAR), -1, -1, scalar(0.0), 0)
         out_tet[i] = tet
         out_s[i] = s
         out_visits[i] = visits

@@ -46,7 +46,8 @@ class Kernels:
 
 def _make_render(scalar, k, trace, Geometry):
     vec3, vec4, mat33 = k.vec3, k.vec4, k.mat33
-    # Secondary rays start this far (relative to the hit's lookback) from the hit event.
+    # Secondary rays start this far (relative to the hit's lookback) from the hit
+    # event: in float32 1e-4 is ~1000 ulps, far above the rounding of the hit.
     SELF_EPS = 1.0e-4 if wp.types.type_size_in_bytes(scalar) == 4 else 1.0e-9
     FAR = 1.0e30
 
@@ -55,6 +56,7 @@ def _make_render(scalar, k, trace, Geometry):
         vert_normal: wp.array(dtype=vec3)
         tri_normal: wp.array(dtype=vec3)
         tri_smooth: wp.array(dtype=wp.int32)
+        tri_size: wp.array(dtype=scalar)
         tri_body: wp.array(dtype=wp.int32)
         tri_material: wp.array(dtype=wp.int32)
         mat_diffuse: wp.array(dtype=vec3)
@@ -175,6 +177,13 @@ def _make_render(scalar, k, trace, Geometry):
             normal = -normal
         x = vec3(event[1], event[2], event[3])
         s_min = scalar(SELF_EPS) * (scalar(1.0) + wp.abs(s))
+        # A smooth-shaded facet near the terminator would shadow itself on its
+        # neighbours (the facet normal is not the shading normal): ignore its own
+        # body within two facet sizes. Real self-shadowing of a moving body needs
+        # it to move by its size, far beyond that.
+        skip_dist = scalar(0.0)
+        if shd.tri_smooth[tri] != 0:
+            skip_dist = scalar(2.0) * shd.tri_size[tri]
         for li in range(shd.light_count):
             l = shd.light_dir[li]
             dist = scalar(FAR)
@@ -187,7 +196,7 @@ def _make_render(scalar, k, trace, Geometry):
                 dist = dist * (scalar(1.0) - scalar(SELF_EPS))
             cos_l = wp.dot(normal, l)
             if cos_l > scalar(0.0):
-                blocker, _bs, _bl, _bv, _bo = trace(geo, event, l, cam.finite, s_min, dist, tri, 1)
+                blocker, _bs, _bl, _bv, _bo = trace(geo, event, l, cam.finite, s_min, dist, tri, body, skip_dist, 1)
                 if blocker < 0:
                     color = color + wp.cw_mul(diffuse, shd.light_radiance[li]) * (cos_l * atten)
         return color
@@ -199,7 +208,7 @@ def _make_render(scalar, k, trace, Geometry):
         py = pixel / cam.width
         n = camera_direction(cam, scalar(px) + scalar(0.5), scalar(py) + scalar(0.5))
         origin = vec4(scalar(0.0))
-        tet, s, lam, visits, overflow = trace(geo, origin, n, cam.finite, scalar(0.0), scalar(FAR), -1, 0)
+        tet, s, lam, visits, overflow = trace(geo, origin, n, cam.finite, scalar(0.0), scalar(FAR), -1, -1, scalar(0.0), 0)
         film.visits[pixel] = visits
         if overflow != 0:
             film.overflow[0] = 1

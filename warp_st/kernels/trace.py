@@ -47,6 +47,7 @@ def make_trace(scalar):
         vert: wp.array(dtype=vec4)
         tet: wp.array(dtype=wp.vec4i)
         tet_tri: wp.array(dtype=wp.int32)
+        tri_body: wp.array(dtype=wp.int32)
         node_lo: wp.array(dtype=vec4)
         node_hi: wp.array(dtype=vec4)
         node_first: wp.array(dtype=wp.int32)
@@ -163,8 +164,22 @@ def make_trace(scalar):
         return scalar(1.0) / x
 
     @wp.func
-    def trace(g: Geometry, o: vec4, n: vec3, finite: int, s_min: scalar, s_max: scalar, skip_tri: int, any_hit: int):
+    def trace(
+        g: Geometry,
+        o: vec4,
+        n: vec3,
+        finite: int,
+        s_min: scalar,
+        s_max: scalar,
+        skip_tri: int,
+        skip_body: int,
+        skip_dist: scalar,
+        any_hit: int,
+    ):
         """Closest (or, with any_hit, any) hit with lookback in (s_min, s_max).
+
+        Hits on triangle ``skip_tri``, and on body ``skip_body`` nearer than
+        ``skip_dist``, are ignored (secondary rays leaving a tessellated surface).
 
         Returns (tet index or -1, s, barycentrics, nodes visited, stack overflowed).
         Near child first with a fixed stack; an overflow is reported, never silent.
@@ -194,9 +209,10 @@ def make_trace(scalar):
             if count > 0:
                 for k in range(count):
                     ti = first + k
-                    if g.tet_tri[ti] != skip_tri:
+                    tri = g.tet_tri[ti]
+                    if tri != skip_tri:
                         h, s, lam = hit_tet(g, ti, o, n, u, w, finite, s_min, best)
-                        if h:
+                        if h and (s >= skip_dist or g.tri_body[tri] != skip_body):
                             best = s
                             best_tet = ti
                             best_lam = lam
