@@ -218,7 +218,7 @@ def build_parser() -> argparse.ArgumentParser:
     i.add_argument("exr", metavar="OUT.exr")
     i.add_argument("--pixel", nargs=2, type=_int_arg, metavar=("X", "Y"),
                    help="print every channel at column X, row Y (row 0 at the top)")
-    i.add_argument("--channel", metavar="NAME", help="channel for statistics or --png")
+    i.add_argument("--channel", metavar="NAME", help="channel for statistics or --png (RGB: the beauty, sRGB-encoded)")
     i.add_argument("--png", metavar="OUT.png", help="write a false-colour PNG of --channel")
 
     v = sub.add_parser("validate", help="load a scene and report what it contains", prog=f"{PROG} validate")
@@ -393,6 +393,24 @@ def _prim_for(image, object_id: int) -> str:
     return image.id_manifest.get(object_id, f"unknown (objectId {object_id} not in idManifest)")
 
 
+BEAUTY = "RGB"
+
+
+def _write_beauty_png(image, png_path: Path) -> None:
+    """The beauty as an 8-bit sRGB PNG (linear values clipped to [0, 1], no colour bar)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .exr import atomic_output
+
+    linear = np.clip(np.nan_to_num(image.rgba[..., :3].astype(np.float64)), 0.0, 1.0)
+    srgb = np.where(linear <= 0.0031308, 12.92 * linear, 1.055 * linear ** (1 / 2.4) - 0.055)
+    with atomic_output(png_path) as fh:
+        plt.imsave(fh, srgb, format="png")
+
+
 def _write_png(image, exr_path: Path, name: str, png_path: Path) -> None:
     import matplotlib
 
@@ -435,6 +453,12 @@ def _cmd_inspect(args) -> int:
     path = Path(args.exr)
     if args.png and not args.channel:
         raise UsageError("--png needs --channel NAME")
+    if args.channel == BEAUTY and args.png:
+        image = read_exr(path)
+        check_output_path(args.png)
+        _write_beauty_png(image, Path(args.png))
+        print(f"wrote {args.png}")
+        return 0
     if args.channel is not None and args.channel not in CHANNEL_NAMES:
         raise UsageError(f"unknown channel {args.channel!r}; known: {', '.join(CHANNEL_NAMES)}")
     image = read_exr(path)
