@@ -48,26 +48,6 @@ from warp_st import lorentz
 from analytic_scenes import EPS32, EPS64, SphereCase, seen_at_centre
 
 
-def _have_renderer() -> bool:
-    """The renderer is built alongside these tests; skip cleanly if it is not there yet."""
-    import importlib.util
-
-    import warp_st
-
-    if not callable(getattr(warp_st, "render", None)):
-        return False
-    for name in ("warp_st.renderer", "warp_st.render"):
-        try:
-            if importlib.util.find_spec(name) is not None:
-                return True
-        except (ImportError, ValueError):
-            pass
-    return False
-
-
-HAVE_RENDER = _have_renderer()
-
-pytestmark = pytest.mark.skipif(not HAVE_RENDER, reason="warp_st.render is not importable yet")
 
 
 def _unit(v):
