@@ -23,7 +23,19 @@ def camera_velocity_gamma(cam: CameraState) -> float:
     return 1.0 / np.sqrt(1.0 - speed * speed)
 
 
-def make_camera(k: Kernels, cam: CameraState, width: int, height: int, light_speed: LightSpeed):
+def make_camera(
+    k: Kernels,
+    cam: CameraState,
+    width: int,
+    height: int,
+    light_speed: LightSpeed,
+    *,
+    samples: int = 1,
+    shutter: float = 0.0,
+    seed: int = 0,
+):
+    """Kernel camera. samples > 1 jitters rays in the pixel (a strata x strata grid) and
+    in camera time over [t_c, t_c + shutter] (4D anti-aliasing and motion blur)."""
     c = k.Camera()
     c.lab_from_camera = k.mat33(*np.asarray(cam.rotation, dtype=np.float64).reshape(-1).tolist())
     c.focal = float(cam.focal_length)
@@ -38,4 +50,8 @@ def make_camera(k: Kernels, cam: CameraState, width: int, height: int, light_spe
     c.moving = 1 if float(np.linalg.norm(cam.velocity)) > 0.0 else 0
     c.decoupled = 1 if cam.decoupled else 0
     c.finite = 1 if LightSpeed(light_speed) == LightSpeed.FINITE else 0
+    c.samples = int(samples)
+    c.strata = max(1, int(np.ceil(np.sqrt(samples))))
+    c.shutter = float(shutter)
+    c.seed = int(seed)
     return c

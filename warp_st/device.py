@@ -43,6 +43,8 @@ class StaticArrays:
         emissive = np.array([m.emissive for m in mats], dtype=np_scalar).reshape(-1, 3)
         self.mat_diffuse = wp.array(diffuse, dtype=k.vec3, device=_DEVICE)
         self.mat_emissive = wp.array(emissive, dtype=k.vec3, device=_DEVICE)
+        metallic = np.array([m.metallic for m in mats], dtype=np_scalar).reshape(-1)
+        self.mat_metallic = wp.array(metallic, dtype=k.scalar, device=_DEVICE)
         bodies = mesh.bodies
         self.body_velocity = wp.array(
             np.array([b.velocity for b in bodies], dtype=np_scalar).reshape(-1, 3), dtype=k.vec3, device=_DEVICE
@@ -80,7 +82,7 @@ def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: Fl
     return g
 
 
-def make_shading(k: Kernels, static: StaticArrays, lights: tuple[Light, ...], origin: np.ndarray, background):
+def make_shading(k: Kernels, static: StaticArrays, lights: tuple[Light, ...], origin: np.ndarray, background, max_depth: int):
     """Shading struct: materials, bodies and lights, positions recentred on ``origin``."""
     ns = static.np_scalar
     s = k.Shading()
@@ -92,6 +94,7 @@ def make_shading(k: Kernels, static: StaticArrays, lights: tuple[Light, ...], or
     s.tri_material = static.tri_material
     s.mat_diffuse = static.mat_diffuse
     s.mat_emissive = static.mat_emissive
+    s.mat_metallic = static.mat_metallic
     s.body_origin = wp.array((static.body_events - origin).astype(ns).reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
     s.body_velocity = static.body_velocity
     s.body_gamma = static.body_gamma
@@ -106,4 +109,5 @@ def make_shading(k: Kernels, static: StaticArrays, lights: tuple[Light, ...], or
     s.light_radiance = wp.array(rad.astype(ns), dtype=k.vec3, device=_DEVICE)
     s.light_count = len(lights)
     s.background = k.vec3(*[float(x) for x in background])
+    s.max_depth = int(max_depth)
     return s

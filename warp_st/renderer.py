@@ -25,6 +25,8 @@ from .visibility import visibility_windows
 __all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION"]
 
 DEFAULT_RESOLUTION = (640, 360)
+#: Mirror reflections followed when nothing asks otherwise (issue: light transport).
+DEFAULT_MAX_DEPTH = 4
 #: Pixels per kernel launch; small enough to balance two cores, large enough that
 #: launch overhead (~tens of microseconds) is negligible.
 _TILE_PIXELS = 8192
@@ -77,6 +79,18 @@ class RenderStats:
     rays: int = 0
 
 
+def _non_negative(value, what: str, source: str):
+    if value is None:
+        return None
+    try:
+        fvalue = float(value)
+    except (TypeError, ValueError):
+        raise SceneError.at(source, None, what, f"must be a number, got {value!r}") from None
+    if not math.isfinite(fvalue) or fvalue < 0.0:
+        raise SceneError.at(source, None, what, f"must be finite and >= 0, got {value!r}")
+    return fvalue
+
+
 def _positive_int(value, what: str, source: str, minimum: int = 1):
     if value is None:
         return None
@@ -107,6 +121,7 @@ class Renderer:
         height: int | None = None,
         max_depth: int | None = None,
         samples: int | None = None,
+        shutter: float | None = None,
         precision: str | None = None,
         light_speed: str | None = None,
         threads: int | None = None,
@@ -125,9 +140,13 @@ class Renderer:
             camera=camera,
             max_depth=_positive_int(max_depth, "maxDepth", src, 0),
             samples=_positive_int(samples, "samples", src),
+            shutter=_non_negative(shutter, "shutter", src),
             precision=precision,
         )
         self.settings = settings
+        self.max_depth = DEFAULT_MAX_DEPTH if settings.max_depth is None else int(settings.max_depth)
+        self.samples = 1 if settings.samples is None else int(settings.samples)
+        self.shutter = 0.0 if settings.shutter is None else float(settings.shutter)
         self.precision = Precision(settings.precision or Precision.FLOAT32)
         width = _positive_int(width, "width", src)
         height = _positive_int(height, "height", src)
@@ -175,8 +194,10 @@ class Renderer:
         t0 = time.perf_counter()
         modes = {self._frame_light_speed(c) for c in cams}
         windows = None
+        # The shutter moves each camera event along its worldline by up to `shutter`.
+        cams = cams + [_advanced(c, self.shutter) for c in cams if self.shutter > 0.0 and self.samples > 1]
         for mode in modes:  # hull of the windows of every light-speed mode in use
-            w = visibility_windows(self.scene, cams, infinite=mode == LightSpeed.INFINITE)
+            w = visibility_windows(self.scene, cams, infinite=mode == LightSpeed.INFINITE, max_depth=self.max_depth)
             windows = w if windows is None else [_hull(a, b) for a, b in zip(windows, w)]
         mesh, bvh = build_database(self.scene, windows)
         t2 = time.perf_counter()
@@ -207,6 +228,9 @@ class Renderer:
             "height": self.height,
             "precision": self.precision.value,
             "camera": self.camera_path,
+            "max_depth": self.max_depth,
+            "samples": self.samples,
+            "shutter": self.shutter,
         }
 
     # -- per frame -------------------------------------------------------------
@@ -229,15 +253,18 @@ class Renderer:
         origin = np.array([cam.time, *cam.position], dtype=np.float64)
         geo = make_geometry(k, self.static, self.mesh, self.bvh, origin)
         background = self.settings.background or (0.0, 0.0, 0.0)
-        shd = make_shading(k, self.static, self.scene.lights, origin, background)
-        kcam = make_camera(k, cam, self.width, self.height, self._frame_light_speed(cam))
+        shd = make_shading(k, self.static, self.scene.lights, origin, background, self.max_depth)
+        kcam = make_camera(
+            k, cam, self.width, self.height, self._frame_light_speed(cam), samples=self.samples, shutter=self.shutter
+        )
 
         n_pix = self.width * self.height
         film = k.Film()
         film.rgba = wp.zeros(n_pix, dtype=k.vec4, device="cpu")
-        for name in ("depth", "event_time", "proper_time", "doppler"):
+        for name in ("depth", "event_time", "proper_time", "doppler", "source_time"):
             setattr(film, name, wp.zeros(n_pix, dtype=k.scalar, device="cpu"))
         film.object_id = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
+        film.bounces = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
         film.visits = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
         film.overflow = wp.zeros(1, dtype=wp.int32, device="cpu")
 
@@ -273,6 +300,8 @@ class Renderer:
         # Absolute event time: float64(rel) + t_c, quantised exactly as the EXR stores it.
         event_time = quantize_time(rel.astype(np.float64) + origin, origin)
         object_id = film.object_id.numpy().reshape(h, w).astype(np.uint32)
+        source_rel = film.source_time.numpy().reshape(h, w)
+        source_time = quantize_time(source_rel.astype(np.float64) + origin, origin)
         hit = object_id > 0
         return Image(
             rgba=rgba,
@@ -281,8 +310,8 @@ class Renderer:
             proper_time=film.proper_time.numpy().reshape(h, w).astype(np.float32),
             doppler=film.doppler.numpy().reshape(h, w).astype(np.float32),
             object_id=object_id,
-            source_time=event_time.copy(),
-            bounces=np.zeros((h, w), np.uint32),
+            source_time=source_time,
+            bounces=film.bounces.numpy().reshape(h, w).astype(np.uint32),
             camera_time=origin,
             time_origin=origin,
             frame=frame,
@@ -293,8 +322,18 @@ class Renderer:
                 "camera": str(self.camera_path),
                 "lightSpeed": self._frame_light_speed(cam).value,
                 "coverage": f"{int(hit.sum())}/{hit.size}",
+                "maxDepth": str(self.max_depth),
+                "samples": str(self.samples),
+                "shutter": repr(self.shutter),
             },
         )
+
+
+def _advanced(cam: CameraState, dt: float) -> CameraState:
+    """The camera event ``dt`` later along the camera's worldline."""
+    import dataclasses
+
+    return dataclasses.replace(cam, time=cam.time + dt, position=np.asarray(cam.position) + np.asarray(cam.velocity) * dt)
 
 
 def _hull(a, b):

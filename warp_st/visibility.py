@@ -60,10 +60,11 @@ def _solve_h(w: np.ndarray, v: np.ndarray, k: float) -> np.ndarray:
     return np.sort(roots[k - roots >= -tol])
 
 
-def frame_window(m0, rho, v, t_ref, t_c, c, *, infinite=False):
+def frame_window(m0, rho, v, t_ref, t_c, c, *, infinite=False, extra=0.0):
     """Lab-time interval [lo, hi] in which a body can meet the past lightcone of (t_c, c).
 
-    Returns None when it never can. See the module docstring, equation (1).
+    Returns None when it never can. See the module docstring, equation (1); ``extra``
+    lowers its lower bound (light that travelled up to ``extra`` further, via mirrors).
     """
     if infinite:
         pad = max(rho, 1.0)
@@ -72,7 +73,7 @@ def frame_window(m0, rho, v, t_ref, t_c, c, *, infinite=False):
     w = np.asarray(m0, dtype=np.float64) - np.asarray(c, dtype=np.float64)
     speed = float(np.linalg.norm(v))
     if speed < 1.0:
-        lo = _solve_h(w, v, t_c - rho - t_ref)
+        lo = _solve_h(w, v, t_c - rho - extra - t_ref)
         hi = _solve_h(w, v, t_c + rho - t_ref)
         lo_t = lo[-1] + t_ref if len(lo) else -np.inf
         hi_t = hi[-1] + t_ref if len(hi) else t_c
@@ -94,8 +95,9 @@ def _hull(a, b):
     return (min(a[0], b[0]), max(a[1], b[1]))
 
 
-def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bool) -> list:
-    """Per body: the lab-time window the frames (and, with lights, shadow rays) can see.
+def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bool, max_depth: int = 0) -> list:
+    """Per body: the lab-time window the frames (through up to ``max_depth`` mirror
+    reflections and, with lights, shadow rays) can see.
 
     Intersected with the body's lifetime; None where a body is never visible.
     """
@@ -106,6 +108,10 @@ def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bo
         for cam in cameras:
             win = _hull(win, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position, infinite=infinite))
         windows.append(win)
+
+    mirrors = [i for i, b in enumerate(scene.bodies) if any(s.material.metallic > 0.0 for s in b.surfaces)]
+    if mirrors and max_depth > 0 and not infinite and any(w is not None for w in windows):
+        windows = _extend_for_mirrors(scene, balls, windows, cameras, mirrors, max_depth)
 
     if scene.lights and any(w is not None for w in windows):
         windows = _extend_for_shadows(scene, balls, windows, infinite=infinite)
@@ -120,6 +126,38 @@ def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bo
         hi = min(win[1] + pad, body.lifetime[1])
         out.append((float(lo), float(hi)) if lo < hi else None)
     return out
+
+
+def _extend_for_mirrors(scene, balls, windows, cameras, mirrors, max_depth):
+    """Widen the windows for light that reached the camera via up to max_depth mirrors.
+
+    A path c -> H1 -> ... -> Hk -> O is at most |O - c| + 2 k D_M long when every
+    mirror event lies within D_M of the camera (each leg is bounded through c by the
+    triangle inequality), so O is seen at a lab time at most 2 k D_M earlier than
+    its direct lightcone crossing: equation (1) with the lower bound lowered by that.
+    Mirrors' own windows widen with each bounce, so D_M is re-measured per bounce.
+    """
+    for bounce in range(1, max_depth + 1):
+        reach = 0.0
+        for i in mirrors:
+            if windows[i] is None:
+                continue
+            m0, rho = balls[i]
+            body = scene.bodies[i]
+            for t in windows[i]:
+                centre = m0 + body.velocity * (t - body.reference_time)
+                for cam in cameras:
+                    reach = max(reach, float(np.linalg.norm(centre - cam.position)) + rho)
+        if reach == 0.0:
+            break
+        out = []
+        for body, (m0, rho), win in zip(scene.bodies, balls, windows):
+            for cam in cameras:
+                win = _hull(win, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position,
+                                              extra=2.0 * bounce * reach))
+            out.append(win)
+        windows = out
+    return windows
 
 
 def _extend_for_shadows(scene, balls, windows, *, infinite):

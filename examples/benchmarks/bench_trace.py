@@ -450,6 +450,8 @@ def bench_static(name, scene, cam, args, log):
         indices=wp.array(tris.reshape(-1).astype(np.int32), dtype=wp.int32, device="cpu"),
     )
     res["mesh_build_s"] = time.perf_counter() - t0
+    # For reference: the same mesh under Warp's median-split BVH (BVH quality matters).
+    wmesh_median = wp.Mesh(points=wmesh.points, indices=wmesh.indices, bvh_constructor="median")
 
     dirs64 = pixel_directions(cam, args.width, args.height)
     n = len(dirs64)
@@ -479,14 +481,24 @@ def bench_static(name, scene, cam, args, log):
 
     # The renderer's tile size, smaller for tiny images so two threads still balance.
     launcher = Launcher(n, min(_TILE_PIXELS, max(256, n // 16)))
+    def theirs_median(a, b):
+        wp.launch(mk, dim=b - a, inputs=[wmesh_median.id, o3[a:b], dirs[a:b], 1.0e30, face_m[a:b], t_m[a:b]], device="cpu")
+
+    face_m = wp.zeros(n, dtype=wp.int32, device="cpu")
+    t_m = wp.zeros(n, dtype=wp.float32, device="cpu")
     launcher.run(ours, 2)  # warm-up
     launcher.run(theirs, 2)
+    launcher.run(theirs_median, 2)
     times = {(w, th): [] for w in ("ours", "mesh") for th in (1, 2)}
+    median_times = []
     for _ in range(args.runs):
         for th in (1, 2):
             times[("ours", th)].append(launcher.run(ours, th))
             times[("mesh", th)].append(launcher.run(theirs, th))
+        median_times.append(launcher.run(theirs_median, 1))
     launcher.pool.shutdown()
+    res["mesh_median_s_1t"] = summarize(median_times)
+    res["mesh_median_mrays_1t"] = n / statistics.median(median_times) / 1e6
     for (who, th), v in times.items():
         res[f"{who}_s_{th}t"] = summarize(v)
         res[f"{who}_mrays_{th}t"] = n / statistics.median(v) / 1e6
@@ -582,6 +594,7 @@ def build_report(results, machine, args):
     row("static ours (cast_rays) Mrays/s 1 thr", lambda x: _mr_range(rays, S(x)["ours_s_1t"]))
     row("static wp.Mesh Mrays/s 1 thr", lambda x: _mr_range(rays, S(x)["mesh_s_1t"]))
     row("static ratio ours/wp.Mesh 1 thr", lambda x: f"{S(x)['ratio_1t']:.3f}")
+    row("static wp.Mesh median-split BVH, 1 thr", lambda x: _mr_range(rays, S(x)["mesh_median_s_1t"]))
     row("static ours Mrays/s 2 thr", lambda x: _mr_range(rays, S(x)["ours_s_2t"]))
     row("static wp.Mesh Mrays/s 2 thr", lambda x: _mr_range(rays, S(x)["mesh_s_2t"]))
     row("static ratio ours/wp.Mesh 2 thr", lambda x: f"{S(x)['ratio_2t']:.3f}")
@@ -596,7 +609,9 @@ def build_report(results, machine, args):
         "",
         f"Machine: {m['cpu']}, {m['cpu_count']} logical cores ({m['usable_cores']} usable), "
         f"warp {m['warp']}, numpy {m['numpy']}, Python {m['python']}, {m['platform']}; "
-        f"load average at start {m['loadavg'][0]:.2f}; {m['date']}.",
+        f"1-min load average {m['loadavg'][0]:.2f} at start, {m.get('loadavg_end', [float('nan')])[0]:.2f} at end "
+        "(other processes on the cores distort the 2-thread numbers); "
+        f"{m['date']}.",
         f"Image {args.width}x{args.height} = {rays:,} primary rays; {args.runs} runs per timing, "
         "median (min–max); 1- and 2-thread runs interleaved; Mrays/s = W*H / kernel seconds.",
         "",
@@ -626,7 +641,8 @@ def build_report(results, machine, args):
         "(adds recentring upload and film read-back).",
         "- static = same camera and pixel rays, every body at rest (one prism = 3 tets per triangle); closest hit only, "
         "tiles of min(8192, W*H/16) rays, 2 threads = tiles from a ThreadPoolExecutor. wp.Mesh uses Warp's default CPU BVH "
-        "(SAH, leaf size 4); ours is a 4D Morton LBVH (leaf size 4) whose leaf test is a float64 ray/tetrahedron test.",
+        "(SAH, leaf size 4; the median-split row is the same mesh with `bvh_constructor='median'`, for scale); "
+        "ours is a 4D Morton LBVH (leaf size 4) whose leaf test is a float64 ray/tetrahedron test.",
         "- scenes: parade = the shipped USD scene, frame 0 (2 lights); sphere grid = 10x10 UV spheres "
         f"({args.sphere_segments} segments) at z = -30, at rest / coupled up to 0.9c / decoupled up to 0.9c, unlit; "
         f"moving cubes = {args.cubes} cubes, 20% at rest, others up to 0.95c in random directions "
@@ -653,7 +669,12 @@ def main(argv=None):
     args = parse_args(argv)
     t_start = time.perf_counter()
     if args.cold_cache:
-        os.environ["WARP_CACHE_PATH"] = tempfile.mkdtemp(prefix="warp_st_bench_cache_")
+        import atexit
+        import shutil
+
+        cold_dir = tempfile.mkdtemp(prefix="warp_st_bench_cache_")
+        os.environ["WARP_CACHE_PATH"] = cold_dir
+        atexit.register(shutil.rmtree, cold_dir, ignore_errors=True)
     from warp_st.renderer import _warp
 
     wp = _warp()
@@ -679,6 +700,10 @@ def main(argv=None):
         static = bench_static(name, scene, cam, args, log)
         results[name] = {"render": render, "static": static}
 
+    try:
+        machine["loadavg_end"] = [round(x, 2) for x in os.getloadavg()]
+    except OSError:
+        pass
     report = build_report(results, machine, args)
     print(report, end="")
     total = time.perf_counter() - t_start

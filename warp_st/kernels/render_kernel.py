@@ -9,6 +9,7 @@ import functools
 import warp as wp
 
 from .probe import make_probe
+from .shade import make_shade
 from .trace import make_trace
 
 __all__ = ["get_kernels", "Kernels"]
@@ -46,31 +47,8 @@ class Kernels:
 
 def _make_render(scalar, k, trace, Geometry):
     vec3, vec4, mat33 = k.vec3, k.vec4, k.mat33
-    # Secondary rays start this far (relative to the hit's lookback) from the hit
-    # event: in float32 1e-4 is ~1000 ulps, far above the rounding of the hit.
-    SELF_EPS = 1.0e-4 if wp.types.type_size_in_bytes(scalar) == 4 else 1.0e-9
     FAR = 1.0e30
-
-    @wp.struct
-    class Shading:
-        vert_normal: wp.array(dtype=vec3)
-        tri_normal: wp.array(dtype=vec3)
-        tri_smooth: wp.array(dtype=wp.int32)
-        tri_size: wp.array(dtype=scalar)
-        tri_body: wp.array(dtype=wp.int32)
-        tri_material: wp.array(dtype=wp.int32)
-        mat_diffuse: wp.array(dtype=vec3)
-        mat_emissive: wp.array(dtype=vec3)
-        body_origin: wp.array(dtype=vec4)  # (t_ref, o) relative to the render origin
-        body_velocity: wp.array(dtype=vec3)
-        body_gamma: wp.array(dtype=scalar)
-        body_decoupled: wp.array(dtype=wp.int32)
-        light_kind: wp.array(dtype=wp.int32)  # 0 sphere (point), 1 distant
-        light_pos: wp.array(dtype=vec3)
-        light_dir: wp.array(dtype=vec3)
-        light_radiance: wp.array(dtype=vec3)
-        light_count: int
-        background: vec3
+    Shading, self_eps, shading_normal, shade, reflect_null = make_shade(scalar, vec3, vec4, Geometry, trace)
 
     @wp.struct
     class Camera:
@@ -87,6 +65,10 @@ def _make_render(scalar, k, trace, Geometry):
         moving: int
         decoupled: int
         finite: int
+        samples: int
+        strata: int
+        shutter: scalar
+        seed: int
 
     @wp.struct
     class Film:
@@ -96,6 +78,8 @@ def _make_render(scalar, k, trace, Geometry):
         proper_time: wp.array(dtype=scalar)
         doppler: wp.array(dtype=scalar)
         object_id: wp.array(dtype=wp.int32)
+        source_time: wp.array(dtype=scalar)
+        bounces: wp.array(dtype=wp.int32)
         visits: wp.array(dtype=wp.int32)
         overflow: wp.array(dtype=wp.int32)
 
@@ -150,85 +134,143 @@ def _make_render(scalar, k, trace, Geometry):
         return vec4(gamma, gamma * v[0], gamma * v[1], gamma * v[2])
 
     @wp.func
-    def shade(geo: Geometry, shd: Shading, cam: Camera, tet: int, s: scalar, lam: vec4, event: vec4, n: vec3):
-        """Lambert from lights at rest with null-ray shadow tests; unlit albedo without lights."""
-        tri = geo.tet_tri[tet]
-        mat = shd.tri_material[tri]
-        body = shd.tri_body[tri]
-        diffuse = shd.mat_diffuse[mat]
-        color = shd.mat_emissive[mat]
-        if shd.light_count == 0:
-            return color + diffuse
-        normal = shd.tri_normal[tri]
-        if shd.tri_smooth[tri] != 0:
-            idx = geo.tet[tet]
-            sm = (
-                lam[0] * shd.vert_normal[idx[0]]
-                + lam[1] * shd.vert_normal[idx[1]]
-                + lam[2] * shd.vert_normal[idx[2]]
-                + lam[3] * shd.vert_normal[idx[3]]
-            )
-            if wp.length(sm) > scalar(0.0):
-                normal = wp.normalize(sm)
-        # Two-sided: use the side the light to the camera leaves from. Relative to a
-        # surface moving with v the photon (spatial direction -n) moves as -(n + v).
-        v = shd.body_velocity[body]
-        if wp.dot(normal, n + v) > scalar(0.0):
-            normal = -normal
-        x = vec3(event[1], event[2], event[3])
-        s_min = scalar(SELF_EPS) * (scalar(1.0) + wp.abs(s))
-        # A smooth-shaded facet near the terminator would shadow itself on its
-        # neighbours (the facet normal is not the shading normal): ignore its own
-        # body within two facet sizes. Real self-shadowing of a moving body needs
-        # it to move by its size, far beyond that.
-        skip_dist = scalar(0.0)
-        if shd.tri_smooth[tri] != 0:
-            skip_dist = scalar(2.0) * shd.tri_size[tri]
-        for li in range(shd.light_count):
-            l = shd.light_dir[li]
-            dist = scalar(FAR)
-            atten = scalar(1.0)
-            if shd.light_kind[li] == 0:
-                to_light = shd.light_pos[li] - x
-                dist = wp.length(to_light)
-                l = to_light / dist
-                atten = scalar(1.0) / (dist * dist)
-                dist = dist * (scalar(1.0) - scalar(SELF_EPS))
-            cos_l = wp.dot(normal, l)
-            if cos_l > scalar(0.0):
-                blocker, _bs, _bl, _bv, _bo = trace(geo, event, l, cam.finite, s_min, dist, tri, body, skip_dist, 1)
-                if blocker < 0:
-                    color = color + wp.cw_mul(diffuse, shd.light_radiance[li]) * (cos_l * atten)
-        return color
+    def null_dir(n: vec3, finite: int) -> vec4:
+        if finite != 0:
+            return vec4(scalar(-1.0), n[0], n[1], n[2])
+        return vec4(scalar(0.0), n[0], n[1], n[2])
+
+    @wp.func
+    def trace_path(geo: Geometry, shd: Shading, finite: int, origin: vec4, n0: vec3):
+        """Radiance along one camera ray with mirror bounces (a loop: kernels cannot recurse).
+
+        A surface shows (1 - metallic) x its own shading + metallic x diffuseColor x the
+        radiance arriving along the reflected null ray (SPEC §2; issue: light transport),
+        for at most ``max_depth`` reflections. Returns (colour, alpha, first tet, its
+        lookback s, barycentrics, source event time, bounces before it, visits,
+        overflow). The source is the last hit that is not a perfect mirror, or the
+        hit where the path ends; NaN when only mirrors led to the background.
+        """
+        color = vec3(scalar(0.0))
+        weight = vec3(scalar(1.0))
+        o = origin
+        n = n0
+        skip = int(-1)
+        path = scalar(0.0)
+        first_tet = int(-1)
+        first_s = scalar(0.0)
+        first_lam = vec4(scalar(0.0))
+        source_t = scalar(wp.nan)
+        source_bounces = int(0)
+        bounces = int(0)
+        visits = int(0)
+        overflow = int(0)
+        depth = int(0)
+        while depth <= shd.max_depth:
+            tet, s, lam, vis, ovf = trace(geo, o, n, finite, self_eps(path), scalar(FAR), skip, -1, scalar(0.0), 0)
+            visits += vis
+            overflow = wp.max(overflow, ovf)
+            if tet < 0:
+                if depth > 0:
+                    color = color + wp.cw_mul(weight, shd.background)
+                break
+            event = o + s * null_dir(n, finite)
+            path = path + s
+            if depth == 0:
+                first_tet = tet
+                first_s = s
+                first_lam = lam
+            tri = geo.tet_tri[tet]
+            mat = shd.tri_material[tri]
+            metal = shd.mat_metallic[mat]
+            normal = shading_normal(geo, shd, tet, lam, n)
+            if metal < scalar(1.0):
+                local = shade(geo, shd, finite, tet, path, event, normal)
+                color = color + wp.cw_mul(weight, local) * (scalar(1.0) - metal)
+                source_t = event[0]
+                source_bounces = bounces
+            if metal <= scalar(0.0) or depth == shd.max_depth:
+                if metal >= scalar(1.0):
+                    source_t = event[0]
+                    source_bounces = bounces
+                break
+            ok, n_out = reflect_null(n, normal, shd.body_velocity[shd.tri_body[tri]], finite)
+            if ok == 0:
+                break
+            weight = wp.cw_mul(weight, shd.mat_diffuse[mat]) * metal
+            o = event
+            n = n_out
+            skip = tri
+            bounces += 1
+            depth += 1
+        alpha = scalar(0.0)
+        if first_tet >= 0:
+            alpha = scalar(1.0)
+        return color, alpha, first_tet, first_s, first_lam, source_t, source_bounces, visits, overflow
+
+    @wp.func
+    def sample_ray(cam: Camera, px: int, py: int, k: int, pixel: int):
+        """Sample k of a pixel: stratified jitter in the pixel and in camera time.
+
+        Returns the ray origin (tau, v_cam tau) relative to the frame's camera event and
+        the lab direction. Seeded per (pixel, sample): reproducible bit for bit.
+        """
+        state = wp.rand_init(cam.seed, pixel * cam.samples + k)
+        sx = (scalar(k % cam.strata) + scalar(wp.randf(state))) / scalar(cam.strata)
+        sy = (scalar((k / cam.strata) % cam.strata) + scalar(wp.randf(state))) / scalar(cam.strata)
+        # Time strata in a scrambled order so time and position decorrelate.
+        kt = (k * 7919 + 3) % cam.samples
+        tau = (scalar(kt) + scalar(wp.randf(state))) / scalar(cam.samples) * cam.shutter
+        n = camera_direction(cam, scalar(px) + sx, scalar(py) + sy)
+        o = vec4(tau, tau * cam.velocity[0], tau * cam.velocity[1], tau * cam.velocity[2])
+        return o, n
 
     @wp.kernel(enable_backward=False, module="unique")
     def render_pixels(geo: Geometry, shd: Shading, cam: Camera, film: Film, offset: int):
         pixel = wp.tid() + offset
         px = pixel % cam.width
         py = pixel / cam.width
+        # The AOV ray: pixel centre at the frame's camera time (also the beauty when
+        # there is one sample).
         n = camera_direction(cam, scalar(px) + scalar(0.5), scalar(py) + scalar(0.5))
         origin = vec4(scalar(0.0))
-        tet, s, lam, visits, overflow = trace(geo, origin, n, cam.finite, scalar(0.0), scalar(FAR), -1, -1, scalar(0.0), 0)
+        color, alpha, tet, s, lam, src_t, src_b, visits, overflow = trace_path(geo, shd, cam.finite, origin, n)
+        if cam.samples > 1:
+            color = vec3(scalar(0.0))
+            alpha = scalar(0.0)
+            for k in range(cam.samples):
+                so, sn = sample_ray(cam, px, py, k, pixel)
+                c, a, _t, _s, _l, _st, _sb, sample_visits, sample_ovf = trace_path(geo, shd, cam.finite, so, sn)
+                color = color + c
+                alpha = alpha + a
+                visits += sample_visits
+                overflow = wp.max(overflow, sample_ovf)
+            inv = scalar(1.0) / scalar(cam.samples)
+            color = color * inv
+            alpha = alpha * inv
         film.visits[pixel] = visits
         if overflow != 0:
             film.overflow[0] = 1
         if tet < 0:
             bg = shd.background
-            film.rgba[pixel] = vec4(bg[0], bg[1], bg[2], scalar(0.0))
+            film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
             film.depth[pixel] = scalar(wp.inf)
             film.event_time[pixel] = scalar(wp.nan)
             film.proper_time[pixel] = scalar(wp.nan)
             film.doppler[pixel] = scalar(wp.nan)
             film.object_id[pixel] = 0
+            film.source_time[pixel] = scalar(wp.nan)
+            film.bounces[pixel] = 0
             return
+        bg = shd.background
+        film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
         dt = scalar(0.0)
         if cam.finite != 0:
             dt = -s
         event = vec4(dt, s * n[0], s * n[1], s * n[2])
-        color = shade(geo, shd, cam, tet, s, lam, event, n)
-        film.rgba[pixel] = vec4(color[0], color[1], color[2], scalar(1.0))
         film.depth[pixel] = rest_distance(cam, dt, vec3(event[1], event[2], event[3]))
         film.event_time[pixel] = event[0]
+        film.source_time[pixel] = src_t
+        film.bounces[pixel] = src_b
 
         body = shd.tri_body[geo.tet_tri[tet]]
         bo = shd.body_origin[body]

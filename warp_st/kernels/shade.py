@@ -1,0 +1,131 @@
+"""Surface response at a hit event: normals, Lambert with null-ray shadows, 4D mirror reflection.
+
+Pure Warp device code. Lights are at rest in the lab (SPEC §3).
+"""
+import warp as wp
+
+__all__ = ["make_shade"]
+
+
+def make_shade(scalar, vec3, vec4, Geometry, trace):
+    # Secondary rays start this far (relative to the path length so far) from the hit
+    # event: in float32 1e-4 is ~1000 ulps, far above the rounding of the hit.
+    SELF_EPS = 1.0e-4 if wp.types.type_size_in_bytes(scalar) == 4 else 1.0e-9
+    FAR = 1.0e30
+
+    @wp.struct
+    class Shading:
+        vert_normal: wp.array(dtype=vec3)
+        tri_normal: wp.array(dtype=vec3)
+        tri_smooth: wp.array(dtype=wp.int32)
+        tri_size: wp.array(dtype=scalar)
+        tri_body: wp.array(dtype=wp.int32)
+        tri_material: wp.array(dtype=wp.int32)
+        mat_diffuse: wp.array(dtype=vec3)
+        mat_emissive: wp.array(dtype=vec3)
+        mat_metallic: wp.array(dtype=scalar)
+        body_origin: wp.array(dtype=vec4)  # (t_ref, o) relative to the render origin
+        body_velocity: wp.array(dtype=vec3)
+        body_gamma: wp.array(dtype=scalar)
+        body_decoupled: wp.array(dtype=wp.int32)
+        light_kind: wp.array(dtype=wp.int32)  # 0 sphere (point), 1 distant
+        light_pos: wp.array(dtype=vec3)
+        light_dir: wp.array(dtype=vec3)
+        light_radiance: wp.array(dtype=vec3)
+        light_count: int
+        background: vec3
+        max_depth: int
+
+    @wp.func
+    def self_eps(path: scalar) -> scalar:
+        return scalar(SELF_EPS) * (scalar(1.0) + wp.abs(path))
+
+    @wp.func
+    def shading_normal(geo: Geometry, shd: Shading, tet: int, lam: vec4, n: vec3) -> vec3:
+        """Unit normal at the hit, on the side the light to the camera leaves from.
+
+        Smooth triangles interpolate vertex normals with the hit's barycentrics.
+        Relative to a surface moving with v the photon (spatial direction -n) moves as
+        -(n + v), which picks the side of a two-sided surface.
+        """
+        tri = geo.tet_tri[tet]
+        normal = shd.tri_normal[tri]
+        if shd.tri_smooth[tri] != 0:
+            idx = geo.tet[tet]
+            sm = (
+                lam[0] * shd.vert_normal[idx[0]]
+                + lam[1] * shd.vert_normal[idx[1]]
+                + lam[2] * shd.vert_normal[idx[2]]
+                + lam[3] * shd.vert_normal[idx[3]]
+            )
+            if wp.length(sm) > scalar(0.0):
+                normal = wp.normalize(sm)
+        v = shd.body_velocity[shd.tri_body[tri]]
+        if wp.dot(normal, n + v) > scalar(0.0):
+            normal = -normal
+        return normal
+
+    @wp.func
+    def shade(geo: Geometry, shd: Shading, finite: int, tet: int, path: scalar, event: vec4, normal: vec3):
+        """Emission plus Lambert from lights at rest, each behind a null-ray shadow test.
+
+        Without lights the surface shows its unlit albedo (SPEC §3).
+        """
+        tri = geo.tet_tri[tet]
+        mat = shd.tri_material[tri]
+        body = shd.tri_body[tri]
+        diffuse = shd.mat_diffuse[mat]
+        color = shd.mat_emissive[mat]
+        if shd.light_count == 0:
+            return color + diffuse
+        x = vec3(event[1], event[2], event[3])
+        s_min = self_eps(path)
+        # A smooth-shaded facet near the terminator would shadow itself on its
+        # neighbours (the facet normal is not the shading normal): ignore its own
+        # body within two facet sizes. Real self-shadowing of a moving body needs
+        # it to move by its size, far beyond that.
+        skip_dist = scalar(0.0)
+        if shd.tri_smooth[tri] != 0:
+            skip_dist = scalar(2.0) * shd.tri_size[tri]
+        for li in range(shd.light_count):
+            l = shd.light_dir[li]
+            dist = scalar(FAR)
+            atten = scalar(1.0)
+            if shd.light_kind[li] == 0:
+                to_light = shd.light_pos[li] - x
+                dist = wp.length(to_light)
+                l = to_light / dist
+                atten = scalar(1.0) / (dist * dist)
+                dist = dist * (scalar(1.0) - scalar(SELF_EPS))
+            cos_l = wp.dot(normal, l)
+            if cos_l > scalar(0.0):
+                blocker, _bs, _bl, _bv, _bo = trace(geo, event, l, finite, s_min, dist, tri, body, skip_dist, 1)
+                if blocker < 0:
+                    color = color + wp.cw_mul(diffuse, shd.light_radiance[li]) * (cos_l * atten)
+        return color
+
+    @wp.func
+    def reflect_null(n: vec3, normal: vec3, v: vec3, finite: int):
+        """Reflect the past null ray (-1, n) about a mirror's world-sheet (ok, new n).
+
+        The world-sheet of a surface with lab normal N moving with v is
+        {N.(x - v t) = const}; its Minkowski normal is nu = (N.v, N). Reflecting
+        k = (-1, n) as k' = k - 2 (k.nu)/(nu.nu) nu keeps k' null and is Einstein's
+        law of reflection at a moving mirror (equivalently: boost to the mirror frame,
+        reflect, boost back). With infinite light speed the ray stays at constant t
+        and reflects as in 3D. Returns ok = 0 when nu is not spacelike (|N.v| >= 1).
+        """
+        if finite == 0:
+            return 1, wp.normalize(n - scalar(2.0) * wp.dot(n, normal) * normal)
+        nv = wp.dot(normal, v)
+        denom = scalar(1.0) - nv * nv
+        if denom <= scalar(0.0):
+            return 0, n
+        f = scalar(2.0) * (wp.dot(n, normal) + nv) / denom
+        k_t = scalar(-1.0) - f * nv
+        k_x = n - f * normal
+        if k_t >= scalar(0.0):
+            return 0, n
+        return 1, wp.normalize(k_x / (-k_t))
+
+    return Shading, self_eps, shading_normal, shade, reflect_null
