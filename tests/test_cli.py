@@ -221,13 +221,13 @@ class FakeRenderer:
     bad_option: bool = False
 
     def __init__(self, scene, *, frames, camera=None, width=None, height=None, max_depth=None,
-                 samples=None, precision=None, light_speed=None):
+                 samples=None, shutter=None, precision=None, light_speed=None):
         if self.bad_option:
             raise SceneError(f"{scene.source}: /Render/Settings: spacetime:samples: must be >= 1")
         self.scene = scene
         self.frames = list(frames)
         self.options = dict(camera=camera, width=width, height=height, max_depth=max_depth,
-                            samples=samples, precision=precision, light_speed=light_speed)
+                            samples=samples, shutter=shutter, precision=precision, light_speed=light_speed)
         self.rendered: list[float] = []
         FakeRenderer.instances.append(self)
 
@@ -289,13 +289,13 @@ def test_render_frames_pattern_and_options(fake, capsys):
     command-line options reach the renderer (enums for precision / light speed)."""
     code, out, err = run(capsys, "render", "shot.usda", "--frames", "1-5x2", "--camera", "/World/Cam",
                          "--width", "32", "--height", "24", "--max-depth", "0", "--samples", "2",
-                         "--precision", "float64", "--light-speed", "infinite", "--quiet")
+                         "--shutter", "0.5", "--precision", "float64", "--light-speed", "infinite", "--quiet")
     assert code == 0, err
     assert out == "" and err == ""
     (renderer,) = FakeRenderer.instances
     assert renderer.frames == renderer.rendered == [1.0, 3.0, 5.0]
     assert renderer.options == dict(camera="/World/Cam", width=32, height=24, max_depth=0, samples=2,
-                                    precision=warp_st.Precision.FLOAT64,
+                                    shutter=0.5, precision=warp_st.Precision.FLOAT64,
                                     light_speed=warp_st.LightSpeed.INFINITE)
     assert sorted(p.name for p in fake.path.glob("*.exr")) == ["shot.0001.exr", "shot.0003.exr", "shot.0005.exr"]
     assert exr.read_exr(fake.path / "shot.0003.exr").camera_time == 3.0

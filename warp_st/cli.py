@@ -164,6 +164,16 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _non_negative_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}") from None
+    if not math.isfinite(value) or value < 0.0:
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}")
+    return value
+
+
 def _non_negative_int(text: str) -> int:
     try:
         value = int(text)
@@ -208,6 +218,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--height", type=_positive_int, metavar="H", help="image height in pixels")
     r.add_argument("--max-depth", type=_non_negative_int, metavar="D", help="mirror reflection bounces")
     r.add_argument("--samples", type=_positive_int, metavar="S", help="samples per pixel")
+    r.add_argument("--shutter", type=_non_negative_float, metavar="T",
+                   help="camera-time interval [t_c, t_c + T] sampled for 4D motion blur (needs --samples > 1)")
     r.add_argument("--precision", choices=("float32", "float64"), help="scalar type of the kernels")
     r.add_argument("--light-speed", choices=("finite", "infinite"), help="finite (c = 1) or infinite light speed")
     r.add_argument("--resume", action="store_true", help="skip frames whose output is already a complete EXR")
@@ -252,7 +264,7 @@ def _plan_outputs(args, scene_path: Path, frames: list[float], frames_given: boo
 
 
 def _options_text(args) -> str:
-    names = ("camera", "width", "height", "max_depth", "samples", "precision", "light_speed")
+    names = ("camera", "width", "height", "max_depth", "samples", "shutter", "precision", "light_speed")
     return " ".join(f"{n}={getattr(args, n)}" for n in names if getattr(args, n) is not None)
 
 
@@ -303,6 +315,7 @@ def _cmd_render(args, argv: list[str]) -> int:
             height=args.height,
             max_depth=args.max_depth,
             samples=args.samples,
+            shutter=args.shutter,
             precision=Precision(args.precision) if args.precision else None,
             light_speed=LightSpeed(args.light_speed) if args.light_speed else None,
         )
