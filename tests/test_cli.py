@@ -221,7 +221,8 @@ class FakeRenderer:
     bad_option: bool = False
 
     def __init__(self, scene, *, frames, camera=None, width=None, height=None, max_depth=None,
-                 samples=None, shutter=None, precision=None, light_speed=None):
+                 samples=None, shutter=None, doppler_color=None, searchlight=None, precision=None,
+                 light_speed=None):
         if self.bad_option:
             raise SceneError(f"{scene.source}: /Render/Settings: spacetime:samples: must be >= 1")
         self.scene = scene

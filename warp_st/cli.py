@@ -220,6 +220,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--samples", type=_positive_int, metavar="S", help="samples per pixel")
     r.add_argument("--shutter", type=_non_negative_float, metavar="T",
                    help="camera-time interval [t_c, t_c + T] sampled for 4D motion blur (needs --samples > 1)")
+    r.add_argument("--doppler-color", action="store_true", default=None,
+                   help="shift each surface's colour by its Doppler factor D (off by default)")
+    r.add_argument("--searchlight", action="store_true", default=None,
+                   help="scale radiance by D^4, the searchlight effect (off by default)")
     r.add_argument("--precision", choices=("float32", "float64"), help="scalar type of the kernels")
     r.add_argument("--light-speed", choices=("finite", "infinite"), help="finite (c = 1) or infinite light speed")
     r.add_argument("--resume", action="store_true", help="skip frames whose output is already a complete EXR")
@@ -264,7 +268,8 @@ def _plan_outputs(args, scene_path: Path, frames: list[float], frames_given: boo
 
 
 def _options_text(args) -> str:
-    names = ("camera", "width", "height", "max_depth", "samples", "shutter", "precision", "light_speed")
+    names = ("camera", "width", "height", "max_depth", "samples", "shutter", "doppler_color", "searchlight",
+             "precision", "light_speed")
     return " ".join(f"{n}={getattr(args, n)}" for n in names if getattr(args, n) is not None)
 
 
@@ -316,6 +321,8 @@ def _cmd_render(args, argv: list[str]) -> int:
             max_depth=args.max_depth,
             samples=args.samples,
             shutter=args.shutter,
+            doppler_color=args.doppler_color,
+            searchlight=args.searchlight,
             precision=Precision(args.precision) if args.precision else None,
             light_speed=LightSpeed(args.light_speed) if args.light_speed else None,
         )

@@ -15,6 +15,7 @@ from .bvh import FlatBVH
 from .conventions import BOX_PAD_ULPS
 from .extrude import SpacetimeMesh
 from .kernels import Kernels
+from .kernels.spectrum import spectral_basis_inverse
 from .scene import Light
 
 __all__ = ["StaticArrays", "upload_static", "make_geometry", "make_shading"]
@@ -82,7 +83,17 @@ def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: Fl
     return g
 
 
-def make_shading(k: Kernels, static: StaticArrays, lights: tuple[Light, ...], origin: np.ndarray, background, max_depth: int):
+def make_shading(
+    k: Kernels,
+    static: StaticArrays,
+    lights: tuple[Light, ...],
+    origin: np.ndarray,
+    background,
+    max_depth: int,
+    *,
+    doppler_color: bool = False,
+    searchlight: bool = False,
+):
     """Shading struct: materials, bodies and lights, positions recentred on ``origin``."""
     ns = static.np_scalar
     s = k.Shading()
@@ -110,4 +121,7 @@ def make_shading(k: Kernels, static: StaticArrays, lights: tuple[Light, ...], or
     s.light_count = len(lights)
     s.background = k.vec3(*[float(x) for x in background])
     s.max_depth = int(max_depth)
+    s.basis_inv = k.mat33(*spectral_basis_inverse().reshape(-1).tolist())
+    s.color_shift = 1 if doppler_color else 0
+    s.searchlight = 1 if searchlight else 0
     return s

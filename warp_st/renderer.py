@@ -122,6 +122,8 @@ class Renderer:
         max_depth: int | None = None,
         samples: int | None = None,
         shutter: float | None = None,
+        doppler_color: bool | None = None,
+        searchlight: bool | None = None,
         precision: str | None = None,
         light_speed: str | None = None,
         threads: int | None = None,
@@ -141,12 +143,16 @@ class Renderer:
             max_depth=_positive_int(max_depth, "maxDepth", src, 0),
             samples=_positive_int(samples, "samples", src),
             shutter=_non_negative(shutter, "shutter", src),
+            doppler_color=None if doppler_color is None else bool(doppler_color),
+            searchlight=None if searchlight is None else bool(searchlight),
             precision=precision,
         )
         self.settings = settings
         self.max_depth = DEFAULT_MAX_DEPTH if settings.max_depth is None else int(settings.max_depth)
         self.samples = 1 if settings.samples is None else int(settings.samples)
         self.shutter = 0.0 if settings.shutter is None else float(settings.shutter)
+        self.doppler_color = bool(settings.doppler_color)
+        self.searchlight = bool(settings.searchlight)
         self.precision = Precision(settings.precision or Precision.FLOAT32)
         width = _positive_int(width, "width", src)
         height = _positive_int(height, "height", src)
@@ -231,6 +237,8 @@ class Renderer:
             "max_depth": self.max_depth,
             "samples": self.samples,
             "shutter": self.shutter,
+            "doppler_color": self.doppler_color,
+            "searchlight": self.searchlight,
         }
 
     # -- per frame -------------------------------------------------------------
@@ -253,7 +261,10 @@ class Renderer:
         origin = np.array([cam.time, *cam.position], dtype=np.float64)
         geo = make_geometry(k, self.static, self.mesh, self.bvh, origin)
         background = self.settings.background or (0.0, 0.0, 0.0)
-        shd = make_shading(k, self.static, self.scene.lights, origin, background, self.max_depth)
+        shd = make_shading(
+            k, self.static, self.scene.lights, origin, background, self.max_depth,
+            doppler_color=self.doppler_color, searchlight=self.searchlight,
+        )
         kcam = make_camera(
             k, cam, self.width, self.height, self._frame_light_speed(cam), samples=self.samples, shutter=self.shutter
         )
@@ -325,6 +336,8 @@ class Renderer:
                 "maxDepth": str(self.max_depth),
                 "samples": str(self.samples),
                 "shutter": repr(self.shutter),
+                "dopplerColor": str(self.doppler_color).lower(),
+                "searchlight": str(self.searchlight).lower(),
             },
         )
 

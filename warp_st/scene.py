@@ -151,6 +151,8 @@ class RenderSettings:
     shutter: float | None = None
     precision: Precision | None = None
     background: tuple[float, float, float] | None = None
+    doppler_color: bool | None = None
+    searchlight: bool | None = None
     prim_path: str | None = None
 
     def merged(self, **overrides) -> "RenderSettings":

@@ -379,6 +379,8 @@ def bench_renderer(name, scene, args, log, first):
         "compile_s": st.compile_seconds,
         "constructor_s": ctor,
         "precision": r.precision.value,
+        "samples": getattr(r, "samples", 1),
+        "max_depth": getattr(r, "max_depth", None),
         "describe": r.describe(),
     }
     if first:
@@ -576,6 +578,7 @@ def build_report(results, machine, args):
     R = lambda n: n["render"]  # noqa: E731
     S = lambda n: n["static"]  # noqa: E731
     row("bodies / triangles / lights", lambda x: f"{R(x)['bodies']} / {R(x)['triangles']:,} / {R(x)['lights']}")
+    row("samples/pixel, max depth, precision", lambda x: f"{R(x)['samples']}, {R(x)['max_depth']}, {R(x)['precision']}")
     row("tetrahedra (moving)", lambda x: f"{R(x)['tetrahedra']:,}")
     row("BVH nodes / depth", lambda x: f"{R(x)['bvh_nodes']:,} / {R(x)['bvh_depth']}")
     row("extrusion + BVH build, s", lambda x: f"{R(x)['extrude_s']:.2f} + {R(x)['bvh_s']:.2f}")
@@ -636,8 +639,8 @@ def build_report(results, machine, args):
     lines.append("")
     notes = [
         "Notes:",
-        "- render = `Renderer.render(0, threads=…)`: primary ray + shading incl. one shadow ray per lit hit per light, "
-        "all AOVs; kernel time from `stats.last_kernel_seconds`, full frame from `stats.last_frame_seconds` "
+        "- render = `Renderer.render(0, threads=…)`, everything the renderer does per pixel (shadow rays to each light, "
+        "mirror bounces up to max depth, all AOVs); Mrays/s counts W*H primary rays only; kernel time from `stats.last_kernel_seconds`, full frame from `stats.last_frame_seconds` "
         "(adds recentring upload and film read-back).",
         "- static = same camera and pixel rays, every body at rest (one prism = 3 tets per triangle); closest hit only, "
         "tiles of min(8192, W*H/16) rays, 2 threads = tiles from a ThreadPoolExecutor. wp.Mesh uses Warp's default CPU BVH "

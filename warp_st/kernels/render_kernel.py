@@ -10,6 +10,7 @@ import warp as wp
 
 from .probe import make_probe
 from .shade import make_shade
+from .spectrum import make_spectrum
 from .trace import make_trace
 
 __all__ = ["get_kernels", "Kernels"]
@@ -48,7 +49,8 @@ class Kernels:
 def _make_render(scalar, k, trace, Geometry):
     vec3, vec4, mat33 = k.vec3, k.vec4, k.mat33
     FAR = 1.0e30
-    Shading, self_eps, shading_normal, shade, reflect_null = make_shade(scalar, vec3, vec4, Geometry, trace)
+    Shading, self_eps, shading_normal, shade, reflect_null = make_shade(scalar, vec3, vec4, Geometry, trace, mat33)
+    doppler_transform = make_spectrum(scalar, vec3, mat33)
 
     @wp.struct
     class Camera:
@@ -140,7 +142,7 @@ def _make_render(scalar, k, trace, Geometry):
         return vec4(scalar(0.0), n[0], n[1], n[2])
 
     @wp.func
-    def trace_path(geo: Geometry, shd: Shading, finite: int, origin: vec4, n0: vec3):
+    def trace_path(geo: Geometry, shd: Shading, cam: Camera, origin: vec4, n0: vec3):
         """Radiance along one camera ray with mirror bounces (a loop: kernels cannot recurse).
 
         A surface shows (1 - metallic) x its own shading + metallic x diffuseColor x the
@@ -149,7 +151,17 @@ def _make_render(scalar, k, trace, Geometry):
         lookback s, barycentrics, source event time, bounces before it, visits,
         overflow). The source is the last hit that is not a perfect mirror, or the
         hit where the path ends; NaN when only mirrors led to the background.
+
+        With Doppler colour / searchlight on, each contribution is transformed by its
+        own D = (k.u_cam)/(k.u_source): k is followed through every reflection, whose
+        moving mirror changes the photon's lab energy by (1 + f N.v) (see reflect_null).
         """
+        finite = cam.finite
+        uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
+        cam_term = uc[0]
+        if finite != 0:
+            cam_term = uc[0] + n0[0] * uc[1] + n0[1] * uc[2] + n0[2] * uc[3]
+        energy = scalar(1.0)  # photon lab energy at the current segment / at the camera
         color = vec3(scalar(0.0))
         weight = vec3(scalar(1.0))
         o = origin
@@ -171,7 +183,8 @@ def _make_render(scalar, k, trace, Geometry):
             overflow = wp.max(overflow, ovf)
             if tet < 0:
                 if depth > 0:
-                    color = color + wp.cw_mul(weight, shd.background)
+                    bg = doppler_transform(shd.background, cam_term / energy, shd.basis_inv, shd.color_shift, shd.searchlight)
+                    color = color + wp.cw_mul(weight, bg)
                 break
             event = o + s * null_dir(n, finite)
             path = path + s
@@ -183,8 +196,14 @@ def _make_render(scalar, k, trace, Geometry):
             mat = shd.tri_material[tri]
             metal = shd.mat_metallic[mat]
             normal = shading_normal(geo, shd, tet, lam, n)
+            body = shd.tri_body[tri]
             if metal < scalar(1.0):
                 local = shade(geo, shd, finite, tet, path, event, normal)
+                ub = four_velocity(shd.body_velocity[body], shd.body_gamma[body], shd.body_decoupled[body])
+                body_term = ub[0]
+                if finite != 0:
+                    body_term = ub[0] + n[0] * ub[1] + n[1] * ub[2] + n[2] * ub[3]
+                local = doppler_transform(local, cam_term / (energy * body_term), shd.basis_inv, shd.color_shift, shd.searchlight)
                 color = color + wp.cw_mul(weight, local) * (scalar(1.0) - metal)
                 source_t = event[0]
                 source_bounces = bounces
@@ -193,9 +212,13 @@ def _make_render(scalar, k, trace, Geometry):
                     source_t = event[0]
                     source_bounces = bounces
                 break
-            ok, n_out = reflect_null(n, normal, shd.body_velocity[shd.tri_body[tri]], finite)
+            v_mirror = shd.body_velocity[body]
+            ok, n_out = reflect_null(n, normal, v_mirror, finite)
             if ok == 0:
                 break
+            if finite != 0:
+                nv = wp.dot(normal, v_mirror)
+                energy = energy * (scalar(1.0) + scalar(2.0) * (wp.dot(n, normal) + nv) * nv / (scalar(1.0) - nv * nv))
             weight = wp.cw_mul(weight, shd.mat_diffuse[mat]) * metal
             o = event
             n = n_out
@@ -233,13 +256,13 @@ def _make_render(scalar, k, trace, Geometry):
         # there is one sample).
         n = camera_direction(cam, scalar(px) + scalar(0.5), scalar(py) + scalar(0.5))
         origin = vec4(scalar(0.0))
-        color, alpha, tet, s, lam, src_t, src_b, visits, overflow = trace_path(geo, shd, cam.finite, origin, n)
+        color, alpha, tet, s, lam, src_t, src_b, visits, overflow = trace_path(geo, shd, cam, origin, n)
         if cam.samples > 1:
             color = vec3(scalar(0.0))
             alpha = scalar(0.0)
             for k in range(cam.samples):
                 so, sn = sample_ray(cam, px, py, k, pixel)
-                c, a, _t, _s, _l, _st, _sb, sample_visits, sample_ovf = trace_path(geo, shd, cam.finite, so, sn)
+                c, a, _t, _s, _l, _st, _sb, sample_visits, sample_ovf = trace_path(geo, shd, cam, so, sn)
                 color = color + c
                 alpha = alpha + a
                 visits += sample_visits

@@ -209,6 +209,8 @@ class _StageReader:
             shutter=A.real(w, prim, "spacetime:shutter", minimum=0.0),
             precision=Precision(precision) if precision else None,
             background=_tuple(A.vector(w, prim, "spacetime:background", 3)),
+            doppler_color=A.boolean(w, prim, "spacetime:dopplerColor"),
+            searchlight=A.boolean(w, prim, "spacetime:searchlight"),
             prim_path=str(prim.GetPath()),
         )
 
