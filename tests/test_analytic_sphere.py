@@ -81,6 +81,13 @@ CASES = [
     seen_at_centre("coupled_diag_0.9_t1e5", 0.9 * DIAG, cam_time=1.0e5),
     seen_at_centre("coupled_diag_0.9_float64", 0.9 * DIAG, precision="float64"),
     seen_at_centre("coupled_x_0.9_infinite_c", 0.9 * X, light_speed="infinite"),
+    # hard cases (issue: stability): beta -> 1, a decoupled body at 2c, and every time
+    # shifted by 1e6 with every position shifted by 1e4
+    seen_at_centre("coupled_x_0.999999", 0.999999 * X),
+    seen_at_centre("coupled_diag_0.999999", 0.999999 * DIAG),
+    seen_at_centre("decoupled_x_2.0", 2.0 * X, decoupled=True),
+    SphereCase(name="coupled_diag_0.9_t1e6_x1e4", velocity=tuple(0.9 * DIAG), center=(1.0e4, 1.0e4, 1.0e4 - 6.0),
+               t_ref=1.0e6, cam_time=1.0e6 + 6.0, cam_pos=(1.0e4, 1.0e4, 1.0e4)),
     seen_at_centre("decoupled_x_1.5_infinite_c", 1.5 * X, decoupled=True, light_speed="infinite"),
 ]
 

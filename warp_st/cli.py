@@ -14,6 +14,7 @@ traceback, nothing written); 1 internal error (traceback with WARP_ST_DEBUG set)
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import re
@@ -184,6 +185,15 @@ def _non_negative_int(text: str) -> int:
     return value
 
 
+def _size_arg(text: str) -> int:
+    from .limits import parse_size
+
+    try:
+        return parse_size(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def _int_arg(text: str) -> int:
     try:
         return int(text)
@@ -227,6 +237,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--precision", choices=("float32", "float64"), help="scalar type of the kernels")
     r.add_argument("--light-speed", choices=("finite", "infinite"), help="finite (c = 1) or infinite light speed")
     r.add_argument("--resume", action="store_true", help="skip frames whose output is already a complete EXR")
+    r.add_argument("--max-memory", type=_size_arg, metavar="SIZE",
+                   help="refuse (exit 2) a render whose estimated memory exceeds SIZE, e.g. 8G or 512M "
+                   "(default: 75%% of the physical memory)")
+    r.add_argument("--no-references", action="store_true",
+                   help="compose only the file's own layers: ignore references and payloads (untrusted stages)")
     r.add_argument("--quiet", "-q", action="store_true", help="print nothing but errors")
 
     i = sub.add_parser("inspect", help="print an EXR's header, channel statistics or a pixel",
@@ -239,6 +254,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     v = sub.add_parser("validate", help="load a scene and report what it contains", prog=f"{PROG} validate")
     v.add_argument("scene", metavar="SCENE.usda")
+    v.add_argument("--no-references", action="store_true",
+                   help="compose only the file's own layers: ignore references and payloads")
     return parser
 
 
@@ -267,10 +284,39 @@ def _plan_outputs(args, scene_path: Path, frames: list[float], frames_given: boo
     return outputs
 
 
+def _load(scene_path: Path, no_references: bool):
+    """warp_st.load with the reader's warnings held back until the stage has loaded.
+
+    On bad input only the one error line is printed (SPEC §6); on success each
+    warning is printed as one line.
+    """
+    import warnings
+
+    import warp_st
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scene = warp_st.load(str(scene_path), no_references=no_references)
+    for w in caught:
+        print(f"{PROG}: warning: {' '.join(str(w.message).split())}", file=sys.stderr)
+    return scene
+
+
+def _file_hash(path: Path) -> str:
+    """sha256 of the file's bytes (the stage's root layer), as ``sha256:HEX``."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(chunk)
+    return f"sha256:{digest.hexdigest()}"
+
+
 def _options_text(args) -> str:
     names = ("camera", "width", "height", "max_depth", "samples", "shutter", "doppler_color", "searchlight",
-             "precision", "light_speed")
-    return " ".join(f"{n}={getattr(args, n)}" for n in names if getattr(args, n) is not None)
+             "precision", "light_speed", "no_references")
+    return " ".join(f"{n}={getattr(args, n)}" for n in names if getattr(args, n) not in (None, False))
 
 
 def _cmd_render(args, argv: list[str]) -> int:
@@ -290,7 +336,8 @@ def _cmd_render(args, argv: list[str]) -> int:
         frames = None  # the stage's start time code: known once it is loaded
     if frames is not None:  # check the output names before the (slower) load
         _plan_outputs(args, scene_path, frames, frames_given)
-    scene = warp_st.load(str(scene_path))
+    stage_hash = _file_hash(scene_path)
+    scene = _load(scene_path, args.no_references)
     if frames is None:
         frames = [float(scene.frame_range[0])] if scene.frame_range is not None else [0.0]
     outputs = _plan_outputs(args, scene_path, frames, frames_given)
@@ -325,13 +372,15 @@ def _cmd_render(args, argv: list[str]) -> int:
             searchlight=args.searchlight,
             precision=Precision(args.precision) if args.precision else None,
             light_speed=LightSpeed(args.light_speed) if args.light_speed else None,
+            # None: the Renderer's default limit (75% of the physical memory)
+            **({"max_memory": args.max_memory} if args.max_memory is not None else {}),
         )
         if not args.quiet:
             stats = renderer.describe() or {}
             if stats:
                 print("scene: " + ", ".join(f"{k}={v}" for k, v in stats.items()))
 
-        metadata = {"stage": str(scene_path), "commandLine": shlex.join([PROG, *argv])}
+        metadata = {"stage": str(scene_path), "stageHash": stage_hash, "commandLine": shlex.join([PROG, *argv])}
         options = _options_text(args)
         if options:
             metadata["options"] = options
@@ -359,13 +408,13 @@ def _cmd_render(args, argv: list[str]) -> int:
         finally:
             if bar is not None:
                 bar.close()
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         print(
-            f"{PROG}: interrupted; frames complete: {_frames_label(complete)} "
+            f"{PROG}: {_interruption(exc)}; frames complete: {_frames_label(complete)} "
             f"({len(complete)} of {len(frames)}); rerun with --resume to continue",
             file=sys.stderr,
         )
-        return 130
+        return _interrupted_status(exc)
     return 0
 
 
@@ -538,12 +587,57 @@ def _cmd_validate(args) -> int:
     scene_path = Path(args.scene)
     if not scene_path.is_file():
         raise UsageError(f"{scene_path}: no such file")
-    scene = warp_st.load(str(scene_path))
+    scene = _load(scene_path, args.no_references)
     print(f"ok: {len(scene.bodies)} bodies, {len(scene.cameras)} cameras, {len(scene.lights)} lights")
     return 0
 
 
 # --- entry point ---------------------------------------------------------------
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (or SIGHUP) delivered to the command line: stop like ^C, exit 128 + signal."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _interruption(exc: BaseException) -> str:
+    if isinstance(exc, Terminated):
+        import signal
+
+        return f"terminated by {signal.Signals(exc.signum).name}"
+    return "interrupted"
+
+
+def _interrupted_status(exc: BaseException) -> int:
+    return 128 + exc.signum if isinstance(exc, Terminated) else 130
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt():
+    """While the command runs, SIGTERM / SIGHUP raise :class:`Terminated` in the main thread
+    (so outputs are finished or rolled back exactly as on ^C); the old handlers come back after."""
+    import signal
+
+    def handler(signum, frame):
+        raise Terminated(signum)
+
+    saved = {}
+    for sig in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):
+        if sig is None:
+            continue
+        try:
+            saved[sig] = signal.signal(sig, handler)
+        except (ValueError, OSError):  # not the main thread, or not supported here
+            pass
+    try:
+        yield
+    finally:
+        for sig, old in saved.items():
+            with contextlib.suppress(ValueError, OSError):
+                signal.signal(sig, old)
 
 
 def _error(message: str) -> None:
@@ -554,6 +648,11 @@ def _error(message: str) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Run ``warp-st`` with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    with _terminate_as_interrupt():
+        return _main(argv)
+
+
+def _main(argv: list[str]) -> int:
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
@@ -572,9 +671,9 @@ def main(argv: list[str] | None = None) -> int:
     except SceneError as exc:
         _error(str(exc))
         return 2
-    except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        print(f"{PROG}: {_interruption(exc)}", file=sys.stderr)
+        return _interrupted_status(exc)
     except OSError as exc:  # e.g. disk full while writing: not a bug, not bad input
         _error(str(exc))
         if os.environ.get("WARP_ST_DEBUG"):

@@ -19,6 +19,7 @@ import numpy as np
 from .conventions import LightSpeed, Precision
 from .extrude import SpacetimeMesh, extrude_scene
 from .film import Image, quantize_time
+from .limits import check_resources, resolve_max_memory
 from .scene import CameraState, Scene, SceneError
 from .visibility import visibility_windows
 
@@ -127,9 +128,11 @@ class Renderer:
         precision: str | None = None,
         light_speed: str | None = None,
         threads: int | None = None,
+        max_memory: int | str | None = None,
     ):
         src = scene.source
         self.scene = scene
+        self.max_memory = resolve_max_memory(max_memory, src)  # bytes; None = no limit known
         try:
             precision = Precision(precision) if precision is not None else None
         except ValueError:
@@ -205,6 +208,10 @@ class Renderer:
         for mode in modes:  # hull of the windows of every light-speed mode in use
             w = visibility_windows(self.scene, cams, infinite=mode == LightSpeed.INFINITE, max_depth=self.max_depth)
             windows = w if windows is None else [_hull(a, b) for a, b in zip(windows, w)]
+        # Refuse before allocating: the tetrahedron count is known from the windows.
+        self.memory_estimate = check_resources(self.scene, windows, width=self.width, height=self.height,
+                                               samples=self.samples, max_depth=self.max_depth,
+                                               max_memory=self.max_memory)
         mesh, bvh = build_database(self.scene, windows)
         t2 = time.perf_counter()
         t1 = t2 - bvh.build_seconds
@@ -370,6 +377,12 @@ def build_database(scene: Scene, windows: list) -> tuple[SpacetimeMesh, "FlatBVH
     mesh = extrude_scene(scene, windows)
     events = mesh.vertices[mesh.tets] if mesh.tet_count else np.zeros((0, 4, 4))
     bvh = build_bvh(events.min(axis=1), events.max(axis=1))
+    if mesh.tet_count == 0:
+        # No geometry: the empty build's root (an inverted box, count 0 = "inner node")
+        # would send a ray through it into node 1, out of bounds, forever. A root box at
+        # t = +inf is never entered by a null ray on a past (or infinite-c) lightcone.
+        far = np.array([[np.inf, 0.0, 0.0, 0.0]])
+        bvh = dataclasses.replace(bvh, node_lo=far, node_hi=far.copy())
     mesh = dataclasses.replace(mesh, tets=mesh.tets[bvh.order], tet_tri=mesh.tet_tri[bvh.order])
     return mesh, bvh
 

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 from pxr import Sdf, Usd
 
+from ..limits import MAX_MAGNITUDE
 from ..scene import SceneError
 
 __all__ = [
@@ -156,6 +157,8 @@ def real(where: Where, prim, name: str, fallback: float | None = None, *, time=D
     x = float(value)
     if math.isnan(x) or (finite and math.isinf(x)):
         raise where.error(prim, name, f"must be finite, got {x}")
+    if finite and abs(x) > MAX_MAGNITUDE:
+        raise where.error(prim, name, f"magnitude must be <= {MAX_MAGNITUDE:g}, got {x}")
     if positive and not x > 0.0:
         raise where.error(prim, name, f"must be > 0, got {x}")
     if minimum is not None and x < minimum:
@@ -177,11 +180,13 @@ def vector(where: Where, prim, name: str, size: int, fallback=None, *, time=DEFA
     v = np.array([float(c) for c in value], dtype=np.float64)
     if np.isnan(v).any() or (finite and not np.isfinite(v).all()):
         raise where.error(prim, name, f"must be {'finite' if finite else 'free of NaN'}, got {tuple(v.tolist())}")
+    if finite and (np.abs(v) > MAX_MAGNITUDE).any():
+        raise where.error(prim, name, f"magnitude must be <= {MAX_MAGNITUDE:g}, got {tuple(v.tolist())}")
     return v
 
 
 def integer(where: Where, prim, name: str, fallback: int | None = None, *, minimum: int | None = None,
-            time=DEFAULT_TIME) -> int | None:
+            maximum: int | None = None, time=DEFAULT_TIME) -> int | None:
     """An integer scalar (int, uint, int64, uint64, uchar)."""
     value, found = _raw(where, prim, name, _INT, "an integer (int)", time)
     if not found:
@@ -189,6 +194,8 @@ def integer(where: Where, prim, name: str, fallback: int | None = None, *, minim
     n = int(value)
     if minimum is not None and n < minimum:
         raise where.error(prim, name, f"must be >= {minimum}, got {n}")
+    if maximum is not None and n > maximum:
+        raise where.error(prim, name, f"must be <= {maximum}, got {n}")
     return n
 
 
@@ -225,6 +232,9 @@ def vec3_array(where: Where, prim, name: str) -> np.ndarray | None:
     if values is not None and not np.isfinite(values).all():
         bad = int(np.argwhere(~np.isfinite(values))[0][0])
         raise where.error(prim, name, f"element {bad} is not finite: {tuple(values[bad].tolist())}")
+    if values is not None and (np.abs(values) > MAX_MAGNITUDE).any():
+        bad = int(np.argwhere(np.abs(values) > MAX_MAGNITUDE)[0][0])
+        raise where.error(prim, name, f"element {bad} has a magnitude > {MAX_MAGNITUDE:g}: {tuple(values[bad].tolist())}")
     return values
 
 
@@ -253,15 +263,18 @@ def body_kinematics(where: Where, prim) -> tuple[np.ndarray, float, tuple[float,
     u = vector(where, prim, "spacetime:fourVelocity", 4, (1.0, 0.0, 0.0, 0.0))
     if not u[0] > 0.0:
         raise where.error(prim, "spacetime:fourVelocity", f"time component must be > 0, got {u[0]}")
-    velocity = u[1:] / u[0]
+    with np.errstate(over="ignore"):
+        velocity = u[1:] / u[0]
     reference_time = real(where, prim, "spacetime:referenceTime", 0.0)
     begin, end = vector(where, prim, "spacetime:lifetime", 2, (-math.inf, math.inf), finite=False)
     if not begin < end:
         raise where.error(prim, "spacetime:lifetime", f"tBegin must be < tEnd, got ({begin}, {end})")
     decoupled = boolean(where, prim, "spacetime:lorentzDecoupled", False)
-    speed = float(np.linalg.norm(velocity))
-    if not math.isfinite(speed):
-        raise where.error(prim, "spacetime:fourVelocity", "velocity is not finite")
+    with np.errstate(over="ignore"):
+        speed = float(np.linalg.norm(velocity))
+    if not math.isfinite(speed) or speed > MAX_MAGNITUDE:
+        raise where.error(prim, "spacetime:fourVelocity",
+                          f"velocity (x, y, z) / t is not finite or its magnitude exceeds {MAX_MAGNITUDE:g}")
     if not decoupled and speed >= 1.0:
         raise where.error(prim, "spacetime:fourVelocity",
                           f"speed |v| = {speed:.6g} >= 1 (the speed of light) on a Lorentz-coupled body; "

@@ -7,9 +7,11 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom
 
 from ..conventions import LightSpeed
+from ..limits import MAX_MAGNITUDE
 from ..scene import CameraState, SceneError
 from . import attributes as A
 from .attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api
+from .geometry import world_transform
 from .stage import open_stage
 
 __all__ = ["CameraEvaluator", "lab_from_camera"]
@@ -63,14 +65,14 @@ class CameraEvaluator:
             known = ", ".join(self.cameras) or "none"
             raise SceneError.at(w.file, str(path), None, f"no such camera (cameras: {known})")
         frame = float(frame)
-        if not math.isfinite(frame):
-            raise SceneError.at(w.file, str(path), None, f"frame must be finite, got {frame}")
+        if not math.isfinite(frame) or abs(frame) > MAX_MAGNITUDE:
+            raise SceneError.at(w.file, str(path), None, f"frame must be finite and within +-{MAX_MAGNITUDE:g}, got {frame}")
         tc = Usd.TimeCode(frame)
         projection = UsdGeom.Camera(prim).GetProjectionAttr().Get(tc)
         if projection != UsdGeom.Tokens.perspective:
             raise w.error(prim, "projection", f"must be perspective, got {projection!r}")
 
-        world = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(tc)
+        world = world_transform(w, prim, lambda: UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(tc), tc)
         position = np.array(world.ExtractTranslation(), dtype=np.float64)
         rotation = lab_from_camera(world)
         if rotation is None:

@@ -9,9 +9,10 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-from pxr import Gf, Usd, UsdGeom, UsdShade
+from pxr import Gf, Tf, Usd, UsdGeom, UsdShade
 
 from .. import tessellate
+from ..limits import MAX_MAGNITUDE
 from ..scene import Material, Surface
 from . import attributes as A
 from .attributes import DEFAULT_TIME, Where
@@ -23,6 +24,7 @@ __all__ = [
     "transform_surface",
     "MaterialReader",
     "GprimReader",
+    "world_transform",
 ]
 
 #: The gprim types turned into surfaces (SPEC §2). Other gprims are skipped with a warning.
@@ -30,6 +32,51 @@ SUPPORTED_GPRIMS = (UsdGeom.Mesh, UsdGeom.Sphere, UsdGeom.Cube)
 
 #: Prims visited below a prototype root: "over" prototypes are allowed, classes are not.
 _PROTOTYPE_PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimIsActive & Usd.PrimIsLoaded & ~Usd.PrimIsAbstract)
+
+
+def _within(values) -> bool:
+    a = np.asarray(values, dtype=np.float64)
+    return bool(np.isfinite(a).all() and (np.abs(a) <= MAX_MAGNITUDE).all())
+
+
+def world_transform(where: Where, prim, compute, time=DEFAULT_TIME) -> Gf.Matrix4d:
+    """``compute()`` (the prim's local-to-world matrix) when it is finite and within
+    MAX_MAGNITUDE; else a SceneError naming the prim and the xformOp at fault.
+
+    USD raises for an op of the wrong type and silently multiplies NaN, infinite or
+    overflowing values; either becomes one error naming the prim (the gprim or the
+    ancestor) and the op attribute.
+    """
+    try:
+        matrix = compute()
+    except Tf.ErrorException:
+        matrix = None
+    if matrix is not None and _within(matrix):
+        return matrix
+    raise _blame_transform(where, prim, time)
+
+
+def _blame_transform(where: Where, prim, time):
+    p = prim
+    while p and not p.IsPseudoRoot():
+        if p.IsA(UsdGeom.Xformable):
+            try:
+                ops = UsdGeom.Xformable(p).GetOrderedXformOps()
+            except Tf.ErrorException:
+                return where.error(p, "xformOpOrder", "cannot be evaluated")
+            for op in ops:
+                name = op.GetName()
+                kind = UsdGeom.XformOp.GetOpTypeToken(op.GetOpType())
+                try:
+                    matrix = op.GetOpTransform(time)
+                except Tf.ErrorException:
+                    return where.error(p, name, f"has type {op.GetTypeName()}, which a {kind} op cannot use")
+                if not _within(matrix):
+                    return where.error(p, name, f"value {op.Get(time)} is not finite or gives a transform "
+                                                f"beyond +-{MAX_MAGNITUDE:g}")
+        p = p.GetParent()
+    return where.error(prim, "xformOpOrder", f"the world transform (the product of its ancestors' transforms) "
+                                             f"is not finite or exceeds +-{MAX_MAGNITUDE:g}")
 
 
 def is_hidden(prim) -> bool:
@@ -164,8 +211,13 @@ class GprimReader:
             return None
         points, triangles, normals = local
         if world_from_local is None:
-            world_from_local = self.xf.GetLocalToWorldTransform(prim)
-        points, triangles, normals = transform_surface(points, triangles, normals, world_from_local)
+            world_from_local = world_transform(self.where, prim, lambda: self.xf.GetLocalToWorldTransform(prim))
+        with np.errstate(over="ignore", invalid="ignore"):
+            points, triangles, normals = transform_surface(points, triangles, normals, world_from_local)
+        if not _within(points):
+            what = {"Sphere": "radius", "Cube": "size"}.get(str(prim.GetTypeName()), "points")
+            raise self.where.error(prim, what, f"world-space coordinates (after the transforms of the prim, its "
+                                               f"ancestors and instancers) are not finite or exceed +-{MAX_MAGNITUDE:g}")
         return Surface(
             prim_path=label or str(prim.GetPath()),
             points=points,
@@ -237,7 +289,7 @@ class GprimReader:
     # -- point instancers ---------------------------------------------------------
     def instancer_surfaces(self, prim) -> list[Surface]:
         """One surface per (visible instance, prototype gprim), in world space."""
-        world = self.xf.GetLocalToWorldTransform(prim)
+        world = world_transform(self.where, prim, lambda: self.xf.GetLocalToWorldTransform(prim))
         out = []
         for gprim, local, label in self._instanced_gprims(prim, depth=0):
             surface = self.surface(gprim, local * world, label)
@@ -264,9 +316,14 @@ class GprimReader:
             i = int(np.argmax(bad))
             raise w.error(prim, "protoIndices",
                           f"entry {i} = {int(proto_indices[i])} is out of range for {len(prototypes)} prototypes")
-        xforms = instancer.ComputeInstanceTransformsAtTime(
-            DEFAULT_TIME, DEFAULT_TIME, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
-        )
+        for name in ("positions", "scales"):
+            A.vec3_array(w, prim, name)  # typed, finite and within MAX_MAGNITUDE, or a SceneError
+        try:
+            xforms = instancer.ComputeInstanceTransformsAtTime(
+                DEFAULT_TIME, DEFAULT_TIME, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
+            )
+        except Tf.ErrorException:
+            xforms = None
         if xforms is None or len(xforms) != len(proto_indices):
             raise w.error(prim, "positions", "instance transforms could not be computed (positions, "
                           "orientations, scales and protoIndices must have matching lengths)")
@@ -294,7 +351,7 @@ class GprimReader:
                 if prim == root:
                     rel = Gf.Matrix4d(1.0)
                 else:
-                    rel, _ = self.xf.ComputeRelativeTransform(prim, root)
+                    rel = world_transform(self.where, prim, lambda: self.xf.ComputeRelativeTransform(prim, root)[0])
                 if prim.IsA(UsdGeom.PointInstancer):
                     out.extend((g, m * rel, lbl) for g, m, lbl in self._instanced_gprims(prim, depth + 1))
                     it.PruneChildren()

@@ -29,11 +29,12 @@ import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender
 
 from ..conventions import Precision
+from ..limits import MAX_BOUNCES, MAX_MAGNITUDE, MAX_PIXELS, MAX_SAMPLES
 from ..scene import Body, Light, RenderSettings, Scene, SceneError, Surface
 from . import attributes as A
 from .attributes import DEFAULT_TIME, SPACETIME_BODY_API, Where, body_kinematics, has_api
 from .camera import CameraEvaluator
-from .geometry import GprimReader, is_hidden
+from .geometry import GprimReader, is_hidden, world_transform
 from .stage import open_stage
 
 __all__ = ["load_scene", "open_stage", "CameraEvaluator", "body_kinematics"]
@@ -123,8 +124,7 @@ class _StageReader:
                 hidden = path
             if has_api(prim, SPACETIME_BODY_API):
                 v, t_ref, life, decoupled = body_kinematics(self.where, prim)
-                body = _BodyBuilder(str(path), _translation(self.xf.GetLocalToWorldTransform(prim)),
-                                    v, t_ref, life, decoupled)
+                body = _BodyBuilder(str(path), _translation(self._world(prim)), v, t_ref, life, decoupled)
                 owners.append((path, body))
                 self.bodies.append(body)
             if hidden is not None:
@@ -139,11 +139,15 @@ class _StageReader:
                 if surface is not None:
                     self._owner(owners, prim).surfaces.append(surface)
 
+    def _world(self, prim) -> Gf.Matrix4d:
+        """The prim's world transform, finite and within MAX_MAGNITUDE (else SceneError naming the op)."""
+        return world_transform(self.where, prim, lambda: self.xf.GetLocalToWorldTransform(prim))
+
     def _owner(self, owners: list[tuple[Sdf.Path, _BodyBuilder]], prim) -> _BodyBuilder:
         """The nearest enclosing body, else a new body at rest at the prim's world origin."""
         if owners:
             return owners[-1][1]
-        body = _BodyBuilder(str(prim.GetPath()), _translation(self.xf.GetLocalToWorldTransform(prim)))
+        body = _BodyBuilder(str(prim.GetPath()), _translation(self._world(prim)))
         self.bodies.append(body)
         return body
 
@@ -164,8 +168,13 @@ class _StageReader:
         if A.boolean(w, prim, "inputs:enableColorTemperature", False):
             kelvin = A.real(w, prim, "inputs:colorTemperature", 6500.0, positive=True)
             color = color * np.array(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
-        radiance = tuple(float(c) for c in intensity * color * 2.0**exposure)
-        world = self.xf.GetLocalToWorldTransform(prim)
+        with np.errstate(over="ignore", invalid="ignore"):
+            rgb = intensity * color * np.power(2.0, exposure)
+        if not (np.isfinite(rgb).all() and (np.abs(rgb) <= MAX_MAGNITUDE).all()):
+            raise w.error(prim, "inputs:intensity * inputs:color * 2^inputs:exposure",
+                          f"the light's radiance {tuple(rgb.tolist())} is not finite or exceeds {MAX_MAGNITUDE:g}")
+        radiance = tuple(float(c) for c in rgb)
+        world = self._world(prim)
         if prim.IsA(UsdLux.SphereLight):
             position = tuple(float(c) for c in _translation(world))
             self.lights.append(Light("sphere", radiance, position=position, prim_path=str(prim.GetPath())))
@@ -193,6 +202,8 @@ class _StageReader:
         resolution = A.int2(w, prim, "resolution")
         if resolution is not None and min(resolution) <= 0:
             raise w.error(prim, "resolution", f"must be positive, got {resolution}")
+        if resolution is not None and resolution[0] * resolution[1] > MAX_PIXELS:
+            raise w.error(prim, "resolution", f"{resolution[0]} x {resolution[1]} is more than {MAX_PIXELS} pixels")
         camera = None
         targets = UsdRender.Settings(prim).GetCameraRel().GetForwardedTargets()
         if targets:
@@ -204,8 +215,8 @@ class _StageReader:
         return RenderSettings(
             resolution=resolution,
             camera=camera,
-            max_depth=A.integer(w, prim, "spacetime:maxDepth", minimum=0),
-            samples=A.integer(w, prim, "spacetime:samples", minimum=1),
+            max_depth=A.integer(w, prim, "spacetime:maxDepth", minimum=0, maximum=MAX_BOUNCES),
+            samples=A.integer(w, prim, "spacetime:samples", minimum=1, maximum=MAX_SAMPLES),
             shutter=A.real(w, prim, "spacetime:shutter", minimum=0.0),
             precision=Precision(precision) if precision else None,
             background=_tuple(A.vector(w, prim, "spacetime:background", 3)),

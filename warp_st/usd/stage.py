@@ -1,8 +1,11 @@
 """Opening a USD stage: any failure becomes one SceneError line naming the file."""
 from __future__ import annotations
 
+import contextlib
 import os
 import re
+import sys
+import tempfile
 from pathlib import Path
 
 from pxr import Sdf, Tf, Usd
@@ -23,17 +26,47 @@ def open_stage(source, *, no_references: bool = False) -> tuple[Usd.Stage, Where
     composed, and a ``Usd.Stage`` passed in is used as already composed. Without it, an arc that cannot be resolved (a missing referenced
     file) is an error rather than silently missing geometry.
     """
-    if isinstance(source, Usd.Stage):
-        root = source.GetRootLayer()
-        stage, label = source, root.realPath or root.identifier
-    else:
-        stage, label = _open_file(os.fspath(source), no_references)
-    if not no_references:
-        errors = [str(e) for e in stage.GetCompositionErrors()]
-        if errors:
-            more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
-            raise SceneError.at(label, None, None, f"composition error: {errors[0]}{more}")
+    with _usd_diagnostics() as printed:
+        if isinstance(source, Usd.Stage):
+            root = source.GetRootLayer()
+            stage, label = source, root.realPath or root.identifier
+        else:
+            stage, label = _open_file(os.fspath(source), no_references)
+        if not no_references:
+            errors = [" ".join(str(e).split()) for e in stage.GetCompositionErrors()]
+            if errors:
+                more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+                raise SceneError.at(label, None, None, f"composition error: {errors[0]}{more}")
+    # USD's own diagnostics of a stage that opened are worth seeing; those of one that
+    # failed are summarised by the SceneError's single line, so they were dropped.
+    if printed and printed[0].strip():
+        print(printed[0].rstrip(), file=sys.stderr)
     return stage, Where(label)
+
+
+@contextlib.contextmanager
+def _usd_diagnostics():
+    """Capture what USD prints on file descriptor 2 while a stage is composed.
+
+    Yields a list that receives the text once the block ends. A SceneError raised
+    in the block propagates and the text is dropped (SPEC §6: one line on bad input).
+    """
+    printed: list[str] = []
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError, AttributeError):  # no real fd 2 (embedded interpreter)
+        yield printed
+        return
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield printed
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            printed.append(sink.read().decode("utf-8", "replace"))
 
 
 def _open_file(label: str, no_references: bool) -> tuple[Usd.Stage, str]:
@@ -48,6 +81,8 @@ def _open_file(label: str, no_references: bool) -> tuple[Usd.Stage, str]:
             stage = Usd.Stage.Open(label, Usd.Stage.LoadAll)
     except Tf.ErrorException as exc:
         raise SceneError.at(label, None, None, f"cannot open: {_tf_message(exc)}") from None
+    except RuntimeError as exc:  # a crate (.usdc) reader failure that is not a Tf error
+        raise SceneError.at(label, None, None, f"cannot open: {' '.join(str(exc).split())[:300]}") from None
     if stage is None:
         raise SceneError.at(label, None, None, "cannot open as a USD stage")
     return stage, label
