@@ -669,3 +669,232 @@ def test_wild_stage_renders_or_names_the_file(tmp_path_factory, files):
 @given(files=wild_stage())
 def test_wild_stage_many(tmp_path_factory, files):
     wild_case(tmp_path_factory.mktemp("wild"), files)
+
+
+# --- byte corruption, in a child process ---------------------------------------------------
+
+#: Runs in a child: for each case, the real command line in-process (exit 0, or 2 with one
+#: stderr line naming the file and no output), then the output's image law. One JSON line per
+#: case is appended to the results file *before* (start) and after (end) it runs, so a crash
+#: or a hang is pinned on the case that was running.
+WORKER = r'''
+import contextlib, io, json, os, resource, sys, tempfile, traceback, warnings
+import numpy as np
+resource.setrlimit(resource.RLIMIT_AS, (int(os.environ["FUZZ_RLIMIT_AS"]),) * 2)
+cases, results_path, kind = json.loads(sys.argv[1]), sys.argv[2], sys.argv[3]
+import warp_st
+from warp_st import cli
+from warp_st.scene import SceneError
+warnings.simplefilter("ignore")
+
+def emit(record):
+    with open(results_path, "a") as fh:
+        fh.write(json.dumps(record) + "\n")
+        fh.flush()
+        os.fsync(fh.fileno())
+
+@contextlib.contextmanager
+def captured_fds():
+    """Everything written on fds 1 and 2 (Python and native) during the block."""
+    out = []
+    sys.stdout.flush(); sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    with tempfile.TemporaryFile() as o, tempfile.TemporaryFile() as e:
+        os.dup2(o.fileno(), 1); os.dup2(e.fileno(), 2)
+        try:
+            yield out
+        finally:
+            sys.stdout.flush(); sys.stderr.flush()
+            os.dup2(saved[0], 1); os.dup2(saved[1], 2)
+            os.close(saved[0]); os.close(saved[1])
+            o.seek(0); e.seek(0)
+            out.append(o.read().decode("utf-8", "replace"))
+            out.append(e.read().decode("utf-8", "replace"))
+
+def check_image(img):
+    bg = img.object_id == 0
+    assert not np.isnan(img.rgba).any(), "NaN in the beauty"
+    assert np.isposinf(img.depth[bg]).all(), "Z != inf on background"
+    assert np.isnan(img.event_time[bg]).all(), "eventTime not NaN on background"
+    assert np.isfinite(img.depth[~bg]).all(), "Z not finite on a hit"
+
+def run_cli(argv):
+    with captured_fds() as text:
+        code = cli.main(argv)
+    return code, text[0], text[1]
+
+for case in cases:
+    path = case["path"]
+    emit({"case": path, "state": "start"})
+    problem = None
+    try:
+        name = os.path.basename(path)
+        if kind == "usd":
+            out = path + ".out.exr"
+            code, stdout, stderr = run_cli(["render", path, "-o", out, "--width", "8", "--height", "6",
+                                            "--quiet", "--max-memory", "1G"])
+            lines = [ln for ln in stderr.splitlines() if ln.strip()]
+            if code == 0:
+                check_image(warp_st.read_exr(out))
+            elif code == 2:
+                assert len(lines) == 1 and name in lines[0], f"exit 2 must print one line naming {name}: {stderr!r}"
+                assert not os.path.exists(out), "exit 2 left an output file"
+            else:
+                raise AssertionError(f"exit {code}: {stderr.strip()[-600:]}")
+        else:  # exr
+            outcomes = []
+            for argv in (["inspect", path], ["inspect", path, "--pixel", "0", "0"],
+                         ["inspect", path, "--channel", "Z"]):
+                code, stdout, stderr = run_cli(argv)
+                lines = [ln for ln in stderr.splitlines() if ln.strip()]
+                assert code in (0, 2), f"{argv}: exit {code}: {stderr.strip()[-600:]}"
+                if code == 2:
+                    assert len(lines) == 1 and name in lines[0] or "pixel" in stderr or "channel" in stderr, \
+                        f"{argv}: exit 2 must print one line naming {name}: {stderr!r}"
+                outcomes.append(code)
+            try:
+                with captured_fds():
+                    img = warp_st.read_exr(path)
+                assert img.rgba.ndim == 3
+            except SceneError as exc:
+                assert name in str(exc) and "\n" not in str(exc), str(exc)
+            with captured_fds():
+                complete = warp_st.exr.is_complete_exr(path)
+            assert isinstance(complete, bool)
+            try:
+                with captured_fds():
+                    warp_st.exr.read_header(path)
+            except SceneError as exc:
+                assert name in str(exc), str(exc)
+        outcome = "ok" if code == 0 else "error"
+    except BaseException as exc:  # noqa: BLE001 - the law under test: nothing escapes
+        problem = "".join(traceback.format_exception(exc))[-2000:]
+        outcome = "bug"
+    emit({"case": path, "state": "end", "outcome": outcome, "problem": problem})
+'''
+
+
+def corrupt(data: bytes, rng: random.Random, *, hot: int = 256) -> tuple[bytes, str]:
+    """One random corruption of ``data``: flipped bits, zeroed / 0xFF runs, truncation,
+    inserted or duplicated chunks. Half the edits land in the first or last ``hot`` bytes
+    (headers, tables of contents), the rest anywhere."""
+    b = bytearray(data)
+    n = len(b)
+
+    def where() -> int:
+        if rng.random() < 0.5:
+            return rng.randrange(min(hot, n)) if rng.random() < 0.5 else max(0, n - 1 - rng.randrange(min(hot, n)))
+        return rng.randrange(n)
+
+    op = rng.choice(["flip", "flip", "zero", "ff", "truncate", "insert", "duplicate", "bytes"])
+    if op == "flip":
+        for _ in range(rng.randint(1, 8)):
+            i = where()
+            b[i] ^= 1 << rng.randrange(8)
+    elif op in ("zero", "ff"):
+        i = where()
+        b[i:i + rng.randint(1, 16)] = bytes([0 if op == "zero" else 255]) * len(b[i:i + 16])
+    elif op == "truncate":
+        b = b[:where()]
+    elif op == "insert":
+        i = where()
+        b[i:i] = bytes(rng.randrange(256) for _ in range(rng.randint(1, 16)))
+    elif op == "duplicate":
+        i = where()
+        b[i:i] = b[i:i + rng.randint(1, 64)]
+    else:
+        i = where()
+        b[i] = rng.randrange(256)
+    return bytes(b), op
+
+
+def run_worker(kind: str, paths: list[Path], results: Path, timeout: float) -> dict:
+    """Run WORKER over ``paths``; fail naming the case on a crash, a hang or a bug."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT), FUZZ_RLIMIT_AS=str(8 << 30), WARP_ST_DEBUG="")
+    env.setdefault("WARP_CACHE_PATH", str(ROOT / ".warp_cache"))
+    cases = json.dumps([{"path": str(p)} for p in paths])
+    try:
+        proc = subprocess.run([sys.executable, "-c", WORKER, cases, str(results), kind], env=env,
+                              capture_output=True, text=True, timeout=timeout, cwd=str(results.parent))
+        died = proc.returncode != 0 and f"child exited {proc.returncode}: {proc.stderr[-1500:]}"
+    except subprocess.TimeoutExpired:
+        died = f"child timed out after {timeout} s"
+    records = [json.loads(line) for line in results.read_text().splitlines()] if results.exists() else []
+    ended = {r["case"]: r for r in records if r["state"] == "end"}
+    started = [r["case"] for r in records if r["state"] == "start"]
+    if died:
+        culprit = next((c for c in started if c not in ended), None)
+        pytest.fail(f"{died}; case running: {culprit}")
+    bugs = {c: r["problem"] for c, r in ended.items() if r["outcome"] == "bug"}
+    assert not bugs, "\n\n".join(f"{c}:\n{p}" for c, p in list(bugs.items())[:3])
+    assert len(ended) == len(paths)
+    counts = {}
+    for r in ended.values():
+        counts[r["outcome"]] = counts.get(r["outcome"], 0) + 1
+    return counts
+
+
+def _usd_seeds(directory: Path) -> list[Path]:
+    """Valid stages to corrupt: the single-fault base, its .usdc export, the shipped scene's
+    .usdc export (bigger: meshes, materials), and a mesh-heavy one."""
+    from pxr import Usd
+
+    seeds = []
+    base = directory / "seed_base.usda"
+    base.write_text(single_stage())
+    seeds.append(base)
+    for src in (base, ROOT / "usd_scenes" / "relativistic_parade.usda"):
+        stage = Usd.Stage.Open(str(src))
+        out = directory / f"seed_{src.stem}.usdc"
+        assert stage.Export(str(out))
+        seeds.append(out)
+    return seeds
+
+
+def _corruption_run(tmp_path: Path, suffix: str, n: int, seed: int, timeout: float) -> dict:
+    rng = random.Random(seed)
+    seeds = [p for p in _usd_seeds(tmp_path) if p.suffix == suffix]
+    paths = []
+    for i in range(n):
+        src = seeds[i % len(seeds)]
+        data, op = corrupt(src.read_bytes(), rng, hot=256 if suffix == ".usda" else 1024)
+        path = tmp_path / f"case{i:05d}_{op}{suffix}"
+        path.write_bytes(data)
+        paths.append(path)
+    counts = run_worker("usd", paths, tmp_path / "results.jsonl", timeout)
+    STATS[f"corrupt{suffix}"] = STATS.get(f"corrupt{suffix}", 0) + n
+    return counts
+
+
+@pytest.mark.parametrize("suffix", [".usda", ".usdc"])
+def test_corrupted_stage_bytes(tmp_path, suffix):
+    """Random byte corruption of .usda text and .usdc crate files, through the real command
+    line in a child process: exit 0 with a correct image, or exit 2 with one line naming the
+    file and no output -- never exit 1, a traceback, a signal or a hang."""
+    counts = _corruption_run(tmp_path, suffix, budget(30), seed=1, timeout=300)
+    assert sum(counts.values()) == budget(30)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("suffix", [".usda", ".usdc"])
+def test_corrupted_stage_bytes_many(tmp_path, suffix):
+    counts = _corruption_run(tmp_path, suffix, budget(1000), seed=2, timeout=3000)
+    print(suffix, counts)
+
+
+def test_empty_stage_near_the_origin_renders_background():
+    """Regression (found by the wild-stage fuzzer): a stage with no visible geometry and the
+    camera within a unit of the world origin hung the kernel (the empty BVH's root box was
+    entered and its missing children read out of bounds). Every light speed and precision."""
+    from pxr import Usd, UsdGeom
+
+    stage = Usd.Stage.CreateInMemory()
+    cam = UsdGeom.Camera.Define(stage, "/Cam")
+    cam.AddTranslateOp().Set((-0.5, 0.2, 0.1))
+    scene = warp_st.load(stage)
+    with watchdog(60):
+        for light_speed in ("finite", "infinite"):
+            for precision in ("float32", "float64"):
+                img = warp_st.render(scene, width=8, height=6, light_speed=light_speed, precision=precision)
+                assert (img.object_id == 0).all()
+                check_image(img, scene)

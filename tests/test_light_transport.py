@@ -723,13 +723,7 @@ def _room():
     return [_plane(f"/Wall{i}", corners, Material(colour)) for i, (corners, colour) in enumerate(walls)]
 
 
-@pytest.mark.parametrize("smooth", [
-    False,
-    pytest.param(True, marks=pytest.mark.xfail(strict=True, reason=(
-        "renderer bug: reflect_null uses the interpolated shading normal, so near the silhouette "
-        "the reflected ray can point below the facet's world-sheet and re-hit a neighbouring "
-        "facet of the same body (trace_path skips only the triangle it left)"))),
-])
+@pytest.mark.parametrize("smooth", [False, True])
 def test_a_convex_mirror_never_rehits_itself(smooth):
     """A ray reflected by a convex body can never meet that body again: each facet's plane
     has the whole (convex) polyhedron behind it. A mirror ball (radius 1.5, the default 64
@@ -737,8 +731,8 @@ def test_a_convex_mirror_never_rehits_itself(smooth):
     unlit walls must show bounces = 1 on every pixel it covers, including the grazing
     rim. Flat shading (facet normals) satisfies it; with the sphere's smooth shading
     normals the reflection about the interpolated normal can dip under the facet near the
-    silhouette (incidence > ~86 deg with 64 segments) and hit the ball again from inside:
-    8 such pixels here (108 with 16 segments), shown with an extra 0.9 per bounce."""
+    silhouette (incidence > ~86 deg with 64 segments) and would hit the ball again from
+    inside (8 such pixels here before the fix): the kernel then reflects about the facet."""
     pts, tris, nrm = tessellate.sphere(1.5, 64)
     centre = np.array([0.0, 0.0, -12.0])
     ball = Body("/Ball", (Surface("/Ball", pts + centre, tris, Material((0.9, 0.9, 0.9), (0, 0, 0), 1.0),

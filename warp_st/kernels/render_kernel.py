@@ -214,6 +214,14 @@ def _make_render(scalar, k, trace, Geometry):
                 break
             v_mirror = shd.body_velocity[body]
             ok, n_out = reflect_null(n, normal, v_mirror, finite)
+            # An interpolated normal can send a grazing reflection into the facet's own
+            # plane (it would re-enter a convex mirror): reflect about the facet then.
+            facet = shd.tri_normal[tri]
+            if wp.dot(facet, n + v_mirror) > scalar(0.0):
+                facet = -facet
+            if wp.dot(facet, n_out + v_mirror) <= scalar(0.0):
+                normal = facet
+                ok, n_out = reflect_null(n, normal, v_mirror, finite)
             if ok == 0:
                 break
             if finite != 0:

@@ -33,7 +33,7 @@ def open_stage(source, *, no_references: bool = False) -> tuple[Usd.Stage, Where
         else:
             stage, label = _open_file(os.fspath(source), no_references)
         if not no_references:
-            errors = [" ".join(str(e).split()) for e in stage.GetCompositionErrors()]
+            errors = [" ".join(_safe_str(e).split()) for e in stage.GetCompositionErrors()]
             if errors:
                 more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
                 raise SceneError.at(label, None, None, f"composition error: {errors[0]}{more}")
@@ -100,14 +100,25 @@ def _refresh_open_layer(label: str) -> None:
         layer.Reload(force=True)
 
 
+def _safe_str(obj) -> str:
+    try:
+        return str(obj)
+    except UnicodeDecodeError:
+        return f"{type(obj).__name__} (its text is not UTF-8)"
+
+
 def _tf_message(exc: Exception) -> str:
     """The first quoted message of a Tf error, on one line (the parser's is the most precise)."""
     messages = []
-    for chunk in re.split(r"\bError in\b", str(exc)):
+    try:
+        text = str(exc)
+    except UnicodeDecodeError:  # USD quotes the offending bytes, and they are not UTF-8
+        return "parse error (the file holds bytes that are not UTF-8 text)"
+    for chunk in re.split(r"\bError in\b", text):
         start, end = chunk.find(" : '"), chunk.rfind("'")
         if 0 <= start < end:
             messages.append(chunk[start + 4:end])
-    text = messages[0] if messages else str(exc)
+    text = messages[0] if messages else text
     return " ".join(text.split())
 
 
