@@ -681,7 +681,7 @@ WORKER = r'''
 import contextlib, io, json, os, resource, sys, tempfile, traceback, warnings
 import numpy as np
 resource.setrlimit(resource.RLIMIT_AS, (int(os.environ["FUZZ_RLIMIT_AS"]),) * 2)
-cases, results_path, kind = json.loads(sys.argv[1]), sys.argv[2], sys.argv[3]
+cases, results_path, kind = json.load(open(sys.argv[1])), sys.argv[2], sys.argv[3]
 import warp_st
 from warp_st import cli
 from warp_st.scene import SceneError
@@ -812,9 +812,10 @@ def run_worker(kind: str, paths: list[Path], results: Path, timeout: float) -> d
     """Run WORKER over ``paths``; fail naming the case on a crash, a hang or a bug."""
     env = dict(os.environ, PYTHONPATH=str(ROOT), FUZZ_RLIMIT_AS=str(8 << 30), WARP_ST_DEBUG="")
     env.setdefault("WARP_CACHE_PATH", str(ROOT / ".warp_cache"))
-    cases = json.dumps([{"path": str(p)} for p in paths])
+    cases = results.with_name("cases.json")
+    cases.write_text(json.dumps([{"path": str(p)} for p in paths]))
     try:
-        proc = subprocess.run([sys.executable, "-c", WORKER, cases, str(results), kind], env=env,
+        proc = subprocess.run([sys.executable, "-c", WORKER, str(cases), str(results), kind], env=env,
                               capture_output=True, text=True, timeout=timeout, cwd=str(results.parent))
         died = proc.returncode != 0 and f"child exited {proc.returncode}: {proc.stderr[-1500:]}"
     except subprocess.TimeoutExpired:

@@ -1,10 +1,14 @@
-"""A 4D bounding volume hierarchy over tetrahedra, built on the host.
+"""A 4D bounding volume hierarchy over tetrahedra.
 
-``wp.Bvh`` is 3D only, so the hierarchy over (t, x, y, z) boxes is ours. The build is
-a linear BVH (Karras 2012 style) done level by level with NumPy: primitives are sorted
-by a 52-bit Morton code of their 4D box centres (13 bits per axis), and every node is
-a contiguous range of that order, split where the highest differing code bit flips.
-Children of a node are stored next to each other, so a node needs only its first child.
+``wp.Bvh`` is 3D only, so the hierarchy over (t, x, y, z) boxes is ours. Two builders
+share one layout (every node a contiguous range of a primitive order, the two children
+of a node stored next to each other, so a node needs only its first child):
+
+- ``"sah"`` (default): binned surface-area heuristic over 4D boxes, split level by
+  level by a Warp kernel (one thread per node, see ``kernels/bvh_build.py``);
+- ``"lbvh"``: a linear BVH (Karras 2012 style) in NumPy: primitives sorted by a 52-bit
+  Morton code of their 4D box centres, each range split where the highest differing
+  code bit flips. Faster to build, slower to trace.
 """
 from __future__ import annotations
 
@@ -15,11 +19,20 @@ import numpy as np
 
 __all__ = ["FlatBVH", "build_bvh", "LEAF_SIZE", "MAX_DEPTH"]
 
-#: Largest primitive count in a leaf.
+#: Ranges this small always become leaves (and LBVH leaves are at most this big).
 LEAF_SIZE = 4
-#: Depth bound of the build: 52 code bits plus the median splits of equal codes
-#: (log2 N <= 32). The traversal stack must hold at least this many entries.
-MAX_DEPTH = 52 + 32
+#: Largest primitive count in a SAH leaf (a leaf is made when the SAH says it is cheaper).
+SAH_MAX_LEAF = 8
+#: SAH costs: a node visit (two 4D box tests) against one float64 tetrahedron test,
+#: measured at roughly 1 : 3 on this kind of CPU.
+SAH_COST_TRAVERSE = 1.0
+SAH_COST_INTERSECT = 3.0
+#: Below this depth the SAH builder splits freely; deeper nodes are halved, so the
+#: depth stays below SAH_FREE_DEPTH + log2 N.
+SAH_FREE_DEPTH = 60
+#: Depth bound of either build (LBVH: 52 code bits plus median splits of equal codes,
+#: log2 N <= 32). The traversal stack must hold at least this many entries.
+MAX_DEPTH = max(52, SAH_FREE_DEPTH) + 32
 
 _BITS = 13
 
@@ -61,14 +74,107 @@ def _morton4(q: np.ndarray) -> np.ndarray:
     return code
 
 
-def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray) -> FlatBVH:
+def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, *, method: str = "sah") -> FlatBVH:
     """Build the BVH over primitive boxes ``prim_lo``/``prim_hi`` of shape (N, 4)."""
     start_clock = time.perf_counter()
     n = len(prim_lo)
     if n == 0:
         z = np.zeros((1, 4))
         return FlatBVH(z, z - 1.0, np.zeros(1, np.int32), np.zeros(1, np.int32), np.zeros(0, np.int64), 0, 0.0)
+    if method == "sah":
+        first, count, levels, order, depth = _sah_topology(prim_lo, prim_hi)
+    elif method == "lbvh":
+        first, count, levels, order, depth = _lbvh_topology(prim_lo, prim_hi)
+    else:
+        raise ValueError(f"unknown BVH method {method!r}")
+    lo, hi = _bounds(prim_lo, prim_hi, first, count, levels, order)
+    return FlatBVH(
+        node_lo=lo,
+        node_hi=hi,
+        node_first=first.astype(np.int32),
+        node_count=count.astype(np.int32),
+        order=order,
+        depth=depth,
+        build_seconds=time.perf_counter() - start_clock,
+    )
 
+
+def _sah_topology(prim_lo, prim_hi):
+    """Node ranges by binned SAH, one Warp launch per tree level."""
+    import warp as wp
+
+    from .kernels.bvh_build import make_sah_split
+
+    kernel = _sah_kernel(make_sah_split)
+    n = len(prim_lo)
+    plo = wp.array(prim_lo.astype(np.float32), dtype=wp.vec4, device="cpu")
+    phi = wp.array(prim_hi.astype(np.float32), dtype=wp.vec4, device="cpu")
+    centre = wp.array((0.5 * (prim_lo + prim_hi)).astype(np.float32), dtype=wp.vec4, device="cpu")
+    order_w = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32, device="cpu")
+    cap = 2 * n
+    first = np.zeros(cap, np.int64)
+    count = np.zeros(cap, np.int64)
+    levels = []
+    seg_start, seg_end, seg_node = np.array([0]), np.array([n]), np.array([0])
+    n_nodes, depth = 1, 0
+    while len(seg_node):
+        depth += 1
+        mid = _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, depth > SAH_FREE_DEPTH)
+        leaf = mid < 0
+        first[seg_node[leaf]] = seg_start[leaf]
+        count[seg_node[leaf]] = seg_end[leaf] - seg_start[leaf]
+        s0, s1, split, node = seg_start[~leaf], seg_end[~leaf], mid[~leaf], seg_node[~leaf]
+        if len(node) == 0:
+            break
+        child = n_nodes + 2 * np.arange(len(node))
+        first[node] = child
+        count[node] = 0
+        n_nodes += 2 * len(node)
+        levels.append(node)
+        seg_start = np.concatenate([s0, split])
+        seg_end = np.concatenate([split, s1])
+        seg_node = np.concatenate([child, child + 1])
+    return first[:n_nodes], count[:n_nodes], levels, order_w.numpy().astype(np.int64), depth
+
+
+_SAH_KERNEL = []
+
+
+def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, force_median):
+    """Split one level's nodes; wide levels in two halves on two threads (disjoint ranges)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    m = len(seg_start)
+    mids = wp.zeros(m, dtype=wp.int32, device="cpu")
+    starts = wp.array(seg_start.astype(np.int32), dtype=wp.int32, device="cpu")
+    ends = wp.array(seg_end.astype(np.int32), dtype=wp.int32, device="cpu")
+    flag = 1 if force_median else 0
+
+    def run(lo, hi):
+        if hi > lo:
+            wp.launch(kernel, dim=hi - lo, inputs=[centre, plo, phi, order_w, starts[lo:hi], ends[lo:hi], flag, mids[lo:hi]],
+                      device="cpu")
+
+    if m < 64:
+        run(0, m)
+    else:
+        # Balance by primitive count, not node count.
+        work = np.cumsum(seg_end - seg_start)
+        half = int(np.searchsorted(work, work[-1] / 2))
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            list(pool.map(lambda r: run(*r), [(0, half), (half, m)]))
+    return mids.numpy().astype(np.int64)
+
+
+def _sah_kernel(make):
+    if not _SAH_KERNEL:
+        _SAH_KERNEL.append(make(LEAF_SIZE, SAH_MAX_LEAF, SAH_COST_TRAVERSE, SAH_COST_INTERSECT))
+    return _SAH_KERNEL[0]
+
+
+def _lbvh_topology(prim_lo, prim_hi):
+    """Node ranges of the Morton-code linear BVH (NumPy, level by level)."""
+    n = len(prim_lo)
     centre = 0.5 * (prim_lo + prim_hi)
     c_lo, c_hi = centre.min(axis=0), centre.max(axis=0)
     scale = np.where(c_hi > c_lo, ((1 << _BITS) - 1) / np.maximum(c_hi - c_lo, 1e-300), 0.0)
@@ -114,10 +220,15 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray) -> FlatBVH:
         seg_end = np.concatenate([split, s1])
         seg_node = np.concatenate([child, child + 1])
 
-    first, count = first[:n_nodes], count[:n_nodes]
+    return first[:n_nodes], count[:n_nodes], levels, order, depth
+
+
+def _bounds(prim_lo, prim_hi, first, count, levels, order):
+    """Node boxes bottom-up: leaves by one reduceat each, then parents level by level."""
+    n_nodes = len(first)
     lo = np.empty((n_nodes, 4))
     hi = np.empty((n_nodes, 4))
-    # Leaf boxes: leaves partition the sorted primitives, so one reduceat each.
+    # Leaves partition the ordered primitives, so one reduceat each.
     leaves = np.nonzero(count > 0)[0]
     leaves = leaves[np.argsort(first[leaves])]
     plo, phi = prim_lo[order], prim_hi[order]
@@ -127,13 +238,4 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray) -> FlatBVH:
         c = first[node]
         lo[node] = np.minimum(lo[c], lo[c + 1])
         hi[node] = np.maximum(hi[c], hi[c + 1])
-
-    return FlatBVH(
-        node_lo=lo,
-        node_hi=hi,
-        node_first=first.astype(np.int32),
-        node_count=count.astype(np.int32),
-        order=order,
-        depth=depth,
-        build_seconds=time.perf_counter() - start_clock,
-    )
+    return lo, hi

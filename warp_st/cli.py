@@ -284,22 +284,46 @@ def _plan_outputs(args, scene_path: Path, frames: list[float], frames_given: boo
     return outputs
 
 
-def _load(scene_path: Path, no_references: bool):
-    """warp_st.load with the reader's warnings held back until the stage has loaded.
+@contextlib.contextmanager
+def _held_diagnostics():
+    """Hold back the reader's Python warnings and what USD prints on fd 2 during the block.
 
-    On bad input only the one error line is printed (SPEC §6); on success each
-    warning is printed as one line.
+    On bad input only the one error line is printed (SPEC §6), so what was held is
+    dropped when the block raises; on success it is printed (each warning as one line).
     """
+    import tempfile
     import warnings
 
-    import warp_st
-
-    with warnings.catch_warnings(record=True) as caught:
+    sys.stderr.flush()
+    try:
+        saved = os.dup(2)
+    except OSError:  # pragma: no cover - no fd 2
+        saved = None
+    with tempfile.TemporaryFile() as sink, warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        scene = warp_st.load(str(scene_path), no_references=no_references)
+        if saved is not None:
+            os.dup2(sink.fileno(), 2)
+        try:
+            yield
+        finally:
+            if saved is not None:
+                sys.stderr.flush()
+                os.dup2(saved, 2)
+                os.close(saved)
+        sink.seek(0)
+        native = sink.read().decode("utf-8", "replace").rstrip()
+    if native:
+        print(native, file=sys.stderr)
     for w in caught:
         print(f"{PROG}: warning: {' '.join(str(w.message).split())}", file=sys.stderr)
-    return scene
+
+
+def _load(scene_path: Path, no_references: bool):
+    """warp_st.load with its diagnostics held back (see _held_diagnostics)."""
+    import warp_st
+
+    with _held_diagnostics():
+        return warp_st.load(str(scene_path), no_references=no_references)
 
 
 def _file_hash(path: Path) -> str:
@@ -359,22 +383,23 @@ def _cmd_render(args, argv: list[str]) -> int:
     try:
         from .renderer import Renderer
 
-        renderer = Renderer(
-            scene,
-            frames=[f for f, _ in todo],
-            camera=args.camera,
-            width=args.width,
-            height=args.height,
-            max_depth=args.max_depth,
-            samples=args.samples,
-            shutter=args.shutter,
-            doppler_color=args.doppler_color,
-            searchlight=args.searchlight,
-            precision=Precision(args.precision) if args.precision else None,
-            light_speed=LightSpeed(args.light_speed) if args.light_speed else None,
-            # None: the Renderer's default limit (75% of the physical memory)
-            **({"max_memory": args.max_memory} if args.max_memory is not None else {}),
-        )
+        with _held_diagnostics():  # the camera is evaluated per frame here
+            renderer = Renderer(
+                scene,
+                frames=[f for f, _ in todo],
+                camera=args.camera,
+                width=args.width,
+                height=args.height,
+                max_depth=args.max_depth,
+                samples=args.samples,
+                shutter=args.shutter,
+                doppler_color=args.doppler_color,
+                searchlight=args.searchlight,
+                precision=Precision(args.precision) if args.precision else None,
+                light_speed=LightSpeed(args.light_speed) if args.light_speed else None,
+                # None: the Renderer's default limit (75% of the physical memory)
+                **({"max_memory": args.max_memory} if args.max_memory is not None else {}),
+            )
         if not args.quiet:
             stats = renderer.describe() or {}
             if stats:

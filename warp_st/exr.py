@@ -247,7 +247,10 @@ def _open_pixels(path: Path):
 def _header_float(header: dict, key: str, default: float) -> float:
     if key not in header:
         return default
-    return float(np.asarray(header[key], dtype=np.float64).ravel()[0])
+    try:
+        return float(np.asarray(header[key], dtype=np.float64).ravel()[0])
+    except (TypeError, ValueError, IndexError):
+        raise ValueError(f"header attribute {key} is not a number: {_safe_display(header[key])}") from None
 
 
 def _read_manifest(manifest) -> dict[int, str]:
@@ -325,6 +328,14 @@ def _display(value) -> str:
     return str(value)
 
 
+def _safe_display(value) -> str:
+    """_display, or a placeholder for a value a damaged file makes undisplayable (bad UTF-8)."""
+    try:
+        return _display(value)
+    except Exception:  # noqa: BLE001 - display only
+        return f"<unreadable {type(value).__name__}>"
+
+
 def read_header(path) -> dict[str, str]:
     """Every header attribute of part 0 as display text (for ``warp-st inspect``).
 
@@ -342,7 +353,7 @@ def read_header(path) -> dict[str, str]:
             error = exc
     if error is not None:
         raise SceneError(f"{path}: not a readable EXR file ({_native_detail(captured, error)})") from None
-    return {key: _display(header[key]) for key in sorted(header)}
+    return {key: _safe_display(header[key]) for key in sorted(header)}
 
 
 def is_complete_exr(path) -> bool:

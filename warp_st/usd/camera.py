@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
 from ..conventions import LightSpeed
 from ..limits import MAX_MAGNITUDE
@@ -12,7 +12,7 @@ from ..scene import CameraState, SceneError
 from . import attributes as A
 from .attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api
 from .geometry import world_transform
-from .stage import open_stage
+from .stage import open_stage, tf_message
 
 __all__ = ["CameraEvaluator", "lab_from_camera"]
 
@@ -56,6 +56,13 @@ class CameraEvaluator:
         return self._stage
 
     def __call__(self, path: str | None = None, frame: float = 0.0) -> CameraState:
+        try:
+            return self._evaluate(path, frame)
+        except Tf.ErrorException as exc:  # a value a corrupt file cannot unpack
+            raise SceneError.at(self.where.file, str(path or self.default_camera), None,
+                                f"cannot be read: {tf_message(exc)}") from None
+
+    def _evaluate(self, path: str | None, frame: float) -> CameraState:
         w = self.where
         path = path or self.default_camera
         if path is None:

@@ -26,7 +26,7 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender
 
 from ..conventions import Precision
 from ..limits import MAX_BOUNCES, MAX_MAGNITUDE, MAX_PIXELS, MAX_SAMPLES
@@ -35,7 +35,7 @@ from . import attributes as A
 from .attributes import DEFAULT_TIME, SPACETIME_BODY_API, Where, body_kinematics, has_api
 from .camera import CameraEvaluator
 from .geometry import GprimReader, is_hidden, world_transform
-from .stage import open_stage
+from .stage import open_stage, tf_message
 
 __all__ = ["load_scene", "open_stage", "CameraEvaluator", "body_kinematics"]
 
@@ -75,6 +75,7 @@ class _StageReader:
         self.cameras: list[str] = []
         self.settings_prims: list = []
         self._warned: set[str] = set()
+        self._current = None
 
     def read(self, *, reopen: str | None = None, no_references: bool = False) -> Scene:
         self._traverse()
@@ -103,7 +104,14 @@ class _StageReader:
         hidden: Sdf.Path | None = None
         owners: list[tuple[Sdf.Path, _BodyBuilder]] = []  # enclosing SpacetimeBodyAPI prims
         it = iter(Usd.PrimRange(self.stage.GetPseudoRoot(), _PREDICATE))
+        try:
+            self._visit_all(it, hidden, owners)
+        except Tf.ErrorException as exc:  # a corrupt crate file fails when a value is unpacked
+            raise self.where.error(self._current, None, f"cannot be read: {tf_message(exc)}") from None
+
+    def _visit_all(self, it, hidden, owners) -> None:
         for prim in it:
+            self._current = prim
             if prim.IsPseudoRoot():
                 continue
             path = prim.GetPath()
@@ -239,4 +247,7 @@ def load_scene(source, *, no_references: bool = False) -> Scene:
     """
     stage, where = open_stage(source, no_references=no_references)
     reopen = None if isinstance(source, Usd.Stage) else os.path.abspath(os.fspath(source))
-    return _StageReader(stage, where).read(reopen=reopen, no_references=no_references)
+    try:
+        return _StageReader(stage, where).read(reopen=reopen, no_references=no_references)
+    except Tf.ErrorException as exc:  # a value USD cannot unpack outside the traversal
+        raise SceneError.at(where.file, None, None, f"cannot be read: {tf_message(exc)}") from None

@@ -13,7 +13,7 @@ from pxr import Sdf, Tf, Usd
 from ..scene import SceneError
 from .attributes import Where
 
-__all__ = ["open_stage"]
+__all__ = ["open_stage", "tf_message"]
 
 
 def open_stage(source, *, no_references: bool = False) -> tuple[Usd.Stage, Where]:
@@ -80,7 +80,7 @@ def _open_file(label: str, no_references: bool) -> tuple[Usd.Stage, str]:
         else:
             stage = Usd.Stage.Open(label, Usd.Stage.LoadAll)
     except Tf.ErrorException as exc:
-        raise SceneError.at(label, None, None, f"cannot open: {_tf_message(exc)}") from None
+        raise SceneError.at(label, None, None, f"cannot open: {tf_message(exc)}") from None
     except RuntimeError as exc:  # a crate (.usdc) reader failure that is not a Tf error
         raise SceneError.at(label, None, None, f"cannot open: {' '.join(str(exc).split())[:300]}") from None
     if stage is None:
@@ -107,7 +107,7 @@ def _safe_str(obj) -> str:
         return f"{type(obj).__name__} (its text is not UTF-8)"
 
 
-def _tf_message(exc: Exception) -> str:
+def tf_message(exc: Exception) -> str:
     """The first quoted message of a Tf error, on one line (the parser's is the most precise)."""
     messages = []
     try:

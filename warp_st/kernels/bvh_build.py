@@ -1,0 +1,134 @@
+"""Binned SAH split of BVH nodes over 4D boxes (pure Warp device code, one thread per node).
+
+Each thread takes one node's contiguous range of the primitive order, bins the
+primitive centres along each of the four axes (t, x, y, z), evaluates the surface-area
+heuristic at every bin boundary and partitions its range in place. The 4D analogue of
+a box's surface area is the sum of its 3-volumes, e_t (e_x e_y + e_y e_z + e_z e_x) +
+e_x e_y e_z: for boxes sharing one time extent (bodies at rest) it orders splits like
+the 3D surface area does.
+"""
+import warp as wp
+
+__all__ = ["BINS", "make_sah_split"]
+
+#: Bins per axis.
+BINS = 16
+
+
+def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_intersect: float):
+    vec4 = wp.vec4
+    bins_i = wp.types.vector(BINS, wp.int32)
+    bins_f = wp.types.vector(BINS, wp.float32)
+    bins_box = wp.types.vector(BINS * 8, wp.float32)
+    BIG = 3.0e38
+
+    @wp.func
+    def area4(lo: vec4, hi: vec4) -> float:
+        e = wp.max(hi - lo, vec4(0.0))
+        return e[0] * (e[1] * e[2] + e[2] * e[3] + e[3] * e[1]) + e[1] * e[2] * e[3]
+
+    @wp.func
+    def bin_of(c: float, lo: float, scale: float) -> int:
+        return wp.clamp(int((c - lo) * scale), 0, BINS - 1)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def sah_split(
+        centre: wp.array(dtype=vec4),
+        plo: wp.array(dtype=vec4),
+        phi: wp.array(dtype=vec4),
+        order: wp.array(dtype=wp.int32),
+        seg_start: wp.array(dtype=wp.int32),
+        seg_end: wp.array(dtype=wp.int32),
+        force_median: int,
+        out_mid: wp.array(dtype=wp.int32),
+    ):
+        i = wp.tid()
+        s0 = seg_start[i]
+        s1 = seg_end[i]
+        n = s1 - s0
+        out_mid[i] = -1
+        if n <= min_leaf:
+            return
+        # Node box and centre bounds.
+        nlo = vec4(BIG)
+        nhi = vec4(-BIG)
+        clo = vec4(BIG)
+        chi = vec4(-BIG)
+        for k in range(s0, s1):
+            p = order[k]
+            nlo = wp.min(nlo, plo[p])
+            nhi = wp.max(nhi, phi[p])
+            clo = wp.min(clo, centre[p])
+            chi = wp.max(chi, centre[p])
+        best_cost = float(BIG)
+        best_axis = int(-1)
+        best_bin = int(-1)
+        if force_median == 0:
+            parent_area = wp.max(area4(nlo, nhi), 1.0e-30)
+            for axis in range(4):
+                extent = chi[axis] - clo[axis]
+                if extent > 0.0:
+                    scale = float(BINS) / extent
+                    count = bins_i()
+                    box = bins_box()
+                    for b in range(BINS):
+                        for c in range(4):
+                            box[b * 8 + c] = BIG
+                            box[b * 8 + 4 + c] = -BIG
+                    for k in range(s0, s1):
+                        p = order[k]
+                        b = bin_of(centre[p][axis], clo[axis], scale)
+                        count[b] = count[b] + 1
+                        lo = plo[p]
+                        hi = phi[p]
+                        for c in range(4):
+                            box[b * 8 + c] = wp.min(box[b * 8 + c], lo[c])
+                            box[b * 8 + 4 + c] = wp.max(box[b * 8 + 4 + c], hi[c])
+                    # Sweep from the right: area and count of bins b..BINS-1.
+                    right_area = bins_f()
+                    right_count = bins_i()
+                    rlo = vec4(BIG)
+                    rhi = vec4(-BIG)
+                    rn = int(0)
+                    for j in range(BINS - 1, 0, -1):
+                        rlo = wp.min(rlo, vec4(box[j * 8 + 0], box[j * 8 + 1], box[j * 8 + 2], box[j * 8 + 3]))
+                        rhi = wp.max(rhi, vec4(box[j * 8 + 4], box[j * 8 + 5], box[j * 8 + 6], box[j * 8 + 7]))
+                        rn = rn + count[j]
+                        right_area[j] = area4(rlo, rhi)
+                        right_count[j] = rn
+                    llo = vec4(BIG)
+                    lhi = vec4(-BIG)
+                    ln = int(0)
+                    for j in range(BINS - 1):
+                        llo = wp.min(llo, vec4(box[j * 8 + 0], box[j * 8 + 1], box[j * 8 + 2], box[j * 8 + 3]))
+                        lhi = wp.max(lhi, vec4(box[j * 8 + 4], box[j * 8 + 5], box[j * 8 + 6], box[j * 8 + 7]))
+                        ln = ln + count[j]
+                        rn_j = right_count[j + 1]
+                        if ln > 0 and rn_j > 0:
+                            cost = cost_traverse + cost_intersect * (
+                                area4(llo, lhi) * float(ln) + right_area[j + 1] * float(rn_j)
+                            ) / parent_area
+                            if cost < best_cost:
+                                best_cost = cost
+                                best_axis = axis
+                                best_bin = j
+            if n <= max_leaf and cost_intersect * float(n) <= best_cost:
+                return  # a leaf is cheaper
+        mid = s0 + n / 2
+        if best_axis >= 0:
+            scale = float(BINS) / (chi[best_axis] - clo[best_axis])
+            lo_i = s0
+            hi_i = s1 - 1
+            while lo_i <= hi_i:
+                if bin_of(centre[order[lo_i]][best_axis], clo[best_axis], scale) <= best_bin:
+                    lo_i += 1
+                else:
+                    tmp = order[lo_i]
+                    order[lo_i] = order[hi_i]
+                    order[hi_i] = tmp
+                    hi_i -= 1
+            if lo_i > s0 and lo_i < s1:
+                mid = lo_i
+        out_mid[i] = mid
+
+    return sah_split
