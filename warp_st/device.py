@@ -72,7 +72,9 @@ def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: Fl
     """Geometry struct with vertices and boxes recentred on ``origin`` = (t_c, c)."""
     g = k.Geometry()
     ns = static.np_scalar
-    g.vert = wp.array((mesh.vertices - origin).astype(ns), dtype=k.vec4, device=_DEVICE)
+    vert = (mesh.vertices - origin).astype(ns)
+    g.vert = wp.array(vert, dtype=k.vec4, device=_DEVICE)
+    g.tet_vert = wp.array(vert[mesh.tets.reshape(-1)], dtype=k.vec4, device=_DEVICE)
     g.tet = static.tet
     g.tet_tri = static.tet_tri
     g.tri_body = static.tri_body

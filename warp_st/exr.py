@@ -257,6 +257,8 @@ def _read_manifest(manifest) -> dict[int, str]:
     result: dict[int, str] = {}
     if manifest is None:
         return result
+    if not isinstance(manifest, OpenEXR.IDManifest):
+        raise ValueError(f"header attribute {ATTR_ID_MANIFEST} is damaged ({type(manifest).__name__})")
     index = manifest.find(MANIFEST_CHANNEL)
     if index >= manifest.size():
         return result
@@ -291,13 +293,13 @@ def read_exr(path) -> Image:
         if spec.pixel_type == "FLOAT" and kind == "UINT":
             raise SceneError(f"{path}: channel {name} is UINT, expected FLOAT")
         known[name] = planes[name]  # HALF from other tools is widened to float32 below
-    time_origin = _header_float(header, ATTR_TIME_ORIGIN, 0.0)
     metadata = {
         key[len(ATTR_PREFIX):]: value
         for key, value in header.items()
         if key.startswith(ATTR_PREFIX) and isinstance(value, str) and key != ATTR_PRECISION
     }
     try:
+        time_origin = _header_float(header, ATTR_TIME_ORIGIN, 0.0)
         return Image.from_file_channels(
             known,
             time_origin=time_origin,
@@ -307,7 +309,7 @@ def read_exr(path) -> Image:
             id_manifest=_read_manifest(header.get(ATTR_ID_MANIFEST)),
             metadata=metadata,
         )
-    except (KeyError, ValueError) as exc:
+    except (KeyError, ValueError, TypeError) as exc:  # a damaged or foreign header
         raise SceneError(f"{path}: {exc}") from None
 
 

@@ -45,6 +45,7 @@ def make_trace(scalar):
     @wp.struct
     class Geometry:
         vert: wp.array(dtype=vec4)
+        tet_vert: wp.array(dtype=vec4)  # the 4 events of tet i at 4i..4i+3: copies of vert
         tet: wp.array(dtype=wp.vec4i)
         tet_tri: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
@@ -93,20 +94,20 @@ def make_trace(scalar):
     @wp.func
     def hit_tet(g: Geometry, ti: int, o: vec4, n: vec3, u: vec3, w: vec3, finite: int, s_min: scalar, s_max: scalar):
         """(hit, s, barycentrics) of the ray with tetrahedron ti, for s in (s_min, s_max)."""
-        idx = g.tet[ti]
+        # The events are stored inline per tetrahedron (one cache line, no gather); they
+        # are bit-identical copies of the shared vertices, which watertightness needs.
+        base = 4 * ti
         nd = to_d(n)
         ud = to_d(u)
         wd = to_d(w)
-        q0, s0 = project(g.vert[idx[0]], o, nd, ud, wd, finite)
-        q1, s1 = project(g.vert[idx[1]], o, nd, ud, wd, finite)
-        q2, s2 = project(g.vert[idx[2]], o, nd, ud, wd, finite)
-        q3, s3 = project(g.vert[idx[3]], o, nd, ud, wd, finite)
+        q0, s0 = project(g.tet_vert[base], o, nd, ud, wd, finite)
+        q1, s1 = project(g.tet_vert[base + 1], o, nd, ud, wd, finite)
+        q2, s2 = project(g.tet_vert[base + 2], o, nd, ud, wd, finite)
+        q3, s3 = project(g.tet_vert[base + 3], o, nd, ud, wd, finite)
         # D_i = signed volume with vertex i replaced by the ray point (the origin):
-        # cofactor signs of the 4x4 [q 1] determinant, faces in ascending order.
-        d0 = -triple(q1, q2, q3)
-        d1 = triple(q0, q2, q3)
-        d2 = -triple(q0, q1, q3)
-        d3 = triple(q0, q1, q2)
+        # cofactor signs of the 4x4 [q 1] determinant. Every face is evaluated as
+        # q_a . (q_b x q_c) with a < b < c (the indices are sorted), so a face shared by
+        # two tetrahedra gives bit-identical values in both.
         # Rounding bound of each face's triple product, |err| <= 5 eps |a|1 |b|1 |c|1
         # (taken as 8 eps). It depends only on the face, so both tetrahedra sharing
         # it use the same tolerance: a point within rounding of a face (or of an edge
@@ -117,10 +118,22 @@ def make_trace(scalar):
         m1 = l1(q1)
         m2 = l1(q2)
         m3 = l1(q3)
-        e0 = wp.float64(FACE_EPS) * m1 * m2 * m3
-        e1 = wp.float64(FACE_EPS) * m0 * m2 * m3
-        e2 = wp.float64(FACE_EPS) * m0 * m1 * m3
+        d3 = triple(q0, q1, q2)
         e3 = wp.float64(FACE_EPS) * m0 * m1 * m2
+        d2 = -triple(q0, q1, q3)
+        e2 = wp.float64(FACE_EPS) * m0 * m1 * m3
+        # Early out: two faces certain of opposite signs put the ray outside.
+        if (d2 > e2 and d3 < -e3) or (d2 < -e2 and d3 > e3):
+            return False, scalar(0.0), vec4(scalar(0.0))
+        c23 = wp.cross(q2, q3)
+        d1 = wp.dot(q0, c23)
+        e1 = wp.float64(FACE_EPS) * m0 * m2 * m3
+        pos = d1 > e1 or d2 > e2 or d3 > e3
+        neg = d1 < -e1 or d2 < -e2 or d3 < -e3
+        if pos and neg:
+            return False, scalar(0.0), vec4(scalar(0.0))
+        d0 = -wp.dot(q1, c23)
+        e0 = wp.float64(FACE_EPS) * m1 * m2 * m3
         det = d0 + d1 + d2 + d3
         if det < wp.float64(0.0):
             det = -det
