@@ -274,7 +274,8 @@ def uploaded_bytes(static, geo):
     the kernel reads them; all = every device array of the database (shading too)."""
     import warp as wp
 
-    trace_arrays = [geo.vert, geo.tet, geo.tet_tri, geo.node_lo, geo.node_hi, geo.node_first, geo.node_count]
+    trace_arrays = [geo.vert, geo.tet_vert, geo.tet, geo.tet_tri, geo.tri_body, geo.node_lo, geo.node_hi,
+                    geo.node_first, geo.node_count]
     trace = sum(_nbytes(a) for a in trace_arrays)
     others = {id(a): a for a in vars(static).values() if isinstance(a, wp.array)}
     for a in trace_arrays:
@@ -650,7 +651,7 @@ def build_report(results, machine, args):
         f"({args.sphere_segments} segments) at z = -30, at rest / coupled up to 0.9c / decoupled up to 0.9c, unlit; "
         f"moving cubes = {args.cubes} cubes, 20% at rest, others up to 0.95c in random directions "
         "(1/3 decoupled), 1 distant light. Static versions: the same bodies at rest at their authored positions.",
-        "- bytes/tet: trace arrays = vertices + tets + tet_tri + node_lo/hi/first/count as uploaded; "
+        "- bytes/tet: trace arrays = vertices + inline tetrahedron events + tets + tet_tri + tri_body + node_lo/hi/first/count as uploaded; "
         "all = plus the shading arrays (normals, materials, bodies).",
     ]
     for n in names:
