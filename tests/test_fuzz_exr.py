@@ -31,7 +31,7 @@ from warp_st import cli
 from warp_st.film import CHANNEL_NAMES, Image
 from warp_st.scene import SceneError
 
-from test_fuzz_usd import STATS, budget, corrupt, fuzz_settings, run_worker, single_stage
+from test_fuzz_usd import STATS, _fuzz_report, budget, corrupt, fuzz_settings, run_worker, single_stage  # noqa: F401
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -98,9 +98,11 @@ def atomic_output(path):
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+        if isinstance(exc, OSError) and exc.errno is not None and str(path) not in str(exc):
+            raise type(exc)(exc.errno, f"cannot write {path}: {exc.strerror or exc}") from exc
         raise
     # Make the rename itself durable; not all platforms allow fsync on a directory.
     with contextlib.suppress(OSError):

@@ -23,7 +23,16 @@ import numpy as np
 
 from .scene import Body, Scene
 
-__all__ = ["SpacetimeMesh", "contraction_matrix", "extrude_scene", "body_slices"]
+__all__ = [
+    "SpacetimeMesh",
+    "contraction_matrix",
+    "extrude_scene",
+    "body_slices",
+    "adapt_sphere_tessellation",
+    "sphere_segments_for_view",
+    "min_pixel_angle",
+    "retessellate_sphere",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -198,3 +207,188 @@ def _prism_tets(tris: np.ndarray, n_pts: int, segments: int) -> np.ndarray:
     )  # (3, T, 4)
     offsets = (np.arange(segments, dtype=np.int64) * n_pts)[:, None, None, None]
     return (one[None] + offsets).reshape(-1, 4)
+
+
+# --------------------------------------------------------------------------- adaptive spheres
+#
+# A UsdGeom.Sphere keeps its analytic shape on the Surface (``Surface.sphere``); the
+# renderer, which knows the resolution, the lens and every frame's camera event, picks
+# the cheapest UV tessellation whose error stays under half a pixel and re-tessellates
+# before extrusion. Why the bound holds (docs/performance.md, "Adaptive tessellation"):
+#
+# - All vertices lie on the sphere, so in the body frame the polyhedron lies between
+#   ball(R - g) and ball(R), g = R (1 - cos(sqrt(2) pi / n)) < 2 R (1 - cos(pi / n)) (the
+#   widest triangle spans a quad's diagonal: twice the great-circle sagitta). The outline
+#   moves in by at most g / L and a visible point along its normal by at most g, seen at
+#   distance L, i.e. an angle g / L.
+# - Coupled bodies: g is a rest-frame length seen at rest-frame distance L'; the angle
+#   scales by omega' / omega to the camera frame and the distance by omega / omega', so
+#   the camera sees g / Z with Z the camera-frame distance (no extra factor for speed).
+#   Decoupled bodies (Galilean): the retarded image stretches angles by at most
+#   gamma = 1 / sqrt(1 - beta^2); at beta >= 1 there is no bound: keep the default.
+# - Z >= (lab lookback) x gamma_c (1 - beta_c) for a moving camera (Galilean camera:
+#   1 - beta_c and angles stretched by 1 / (1 - beta_c)), and the lab lookback of any
+#   event on the sphere is at least min |centre(t) - c| - R over the lab times t the
+#   frame can see (visibility.frame_window on the sphere's own ball).
+# - One pixel subtends at least the smallest angle between neighbouring pixel centres
+#   (at the image corners for a pinhole).
+#
+# Not covered (documented): shadow edges on grazing receivers and reflections in curved
+# mirrors can magnify the error; mirror spheres and scenes with mirrors therefore never
+# go below the reader's default tessellation.
+
+
+def min_pixel_angle(cam, width: int, height: int) -> float:
+    """Smallest angle (radians, camera rest frame) between neighbouring pixel centres.
+
+    The pinhole's angular pixel size falls with the distance from the principal point
+    (radially as cos^2 of the field angle), so the minimum is at an image corner.
+    """
+    h_ap = float(cam.horizontal_aperture)
+    v_ap = h_ap * height / width
+    f = float(cam.focal_length)
+
+    def direction(i, j):
+        x = ((i + 0.5) / width * 2.0 - 1.0) * 0.5 * h_ap + float(cam.horizontal_aperture_offset)
+        y = (1.0 - (j + 0.5) / height * 2.0) * 0.5 * v_ap + float(cam.vertical_aperture_offset)
+        d = np.array([x, y, -f], dtype=np.float64)
+        return d / np.linalg.norm(d)
+
+    best = np.inf
+    for i, di in ((0, 1), (width - 1, -1)):
+        for j, dj in ((0, 1), (height - 1, -1)):
+            a = direction(i, j)
+            for b in (direction(i + di, j), direction(i, j + dj)):
+                best = min(best, float(np.arctan2(np.linalg.norm(np.cross(a, b)), float(a @ b))))
+    return best
+
+
+def sphere_segments_for_view(radius: float, distance: float, pixel_angle: float, *, pixels: float = 0.5,
+                             lo: int = 8, hi: int = 512) -> int:
+    """UV-sphere longitudes n whose tessellation error, seen from ``distance`` or farther,
+    stays under ``pixels`` pixels of angle ``pixel_angle``: the diagonal gap
+    g < 2 r (1 - cos(pi / n)) must be <= pixels x distance x pixel_angle. Even n (the
+    latitude bands are n / 2, so their step equals the longitude step)."""
+    from . import tessellate
+
+    if not (distance > 0.0 and np.isfinite(distance)):
+        return hi if not np.isinf(distance) else lo
+    tolerance = pixels * distance * pixel_angle
+    n = tessellate.sphere_segments_for_sagitta(radius, 0.5 * tolerance, lo=lo, hi=hi)
+    return int(min(n + (n % 2), hi))
+
+
+def retessellate_sphere(surface, segments: int):
+    """``surface`` (a UsdGeom.Sphere with ``surface.sphere`` set) with ``segments``
+    longitudes: the reader's transform applied to ``tessellate.sphere`` (points affinely,
+    normals by the inverse transpose, winding reversed by a mirroring transform)."""
+    import dataclasses
+
+    from . import tessellate
+
+    radius, m = surface.sphere
+    m = np.asarray(m, dtype=np.float64).reshape(4, 4)
+    pts, tris, nrm = tessellate.sphere(radius, segments)
+    linear, shift = m[:3, :3], m[3, :3]
+    world = pts @ linear + shift
+    det = float(np.linalg.det(linear))
+    normals = None
+    if abs(det) > 1e-300:
+        n = nrm @ np.linalg.inv(linear).T
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        normals = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+    if det < 0:
+        tris = tris[:, [0, 2, 1]]
+    return dataclasses.replace(surface, points=world, triangles=np.ascontiguousarray(tris, dtype=np.int64),
+                               normals=normals)
+
+
+def _camera_stretch(cam) -> float:
+    """Factor by which a moving camera can magnify angles relative to (size / lab lookback); inf: no bound."""
+    beta = float(np.linalg.norm(cam.velocity))
+    if beta == 0.0:
+        return 1.0
+    if beta >= 1.0:
+        return np.inf
+    if cam.decoupled:
+        return (1.0 + beta) / (1.0 - beta)
+    return float(np.sqrt((1.0 + beta) / (1.0 - beta)))
+
+
+def _sphere_view_distance(body: Body, centre_ref: np.ndarray, r_world: float, cameras, modes) -> float:
+    """min over frames of (nearest lab distance of the sphere's surface to the camera over
+    the lab times the frame can see) / (camera stretch); 0 when a camera is inside,
+    inf when no frame sees it, NaN when a camera moves at |v| >= 1 (no bound)."""
+    from .visibility import frame_window
+
+    A = contraction_matrix(body.velocity, body.decoupled)
+    m0 = (centre_ref - body.origin) @ A.T + body.origin
+    v = np.asarray(body.velocity, dtype=np.float64)
+    best = np.inf
+    for cam in cameras:
+        stretch = _camera_stretch(cam)
+        if not np.isfinite(stretch):
+            return np.nan
+        c = np.asarray(cam.position, dtype=np.float64)
+        for infinite in modes:
+            win = frame_window(m0, r_world, v, body.reference_time, cam.time, c, infinite=infinite)
+            if win is None:
+                continue
+            lo, hi = max(win[0], body.lifetime[0]), min(win[1], body.lifetime[1])
+            if not lo <= hi:
+                continue
+            # nearest point of the centre's segment m0 + v (t - t_ref), t in [lo, hi], to c
+            a = m0 + v * (lo - body.reference_time) - c
+            seg = v * (hi - lo)
+            ss = float(seg @ seg)
+            u = 0.0 if ss == 0.0 or not np.isfinite(ss) else float(np.clip(-(a @ seg) / ss, 0.0, 1.0))
+            d = float(np.linalg.norm(a + u * seg)) - r_world
+            best = min(best, max(d, 0.0) / stretch)
+    return best
+
+
+def adapt_sphere_tessellation(scene: Scene, cameras, *, width: int, height: int, modes=(False,),
+                              max_depth: int = 0, pixels: float = 0.5):
+    """Re-tessellate every UsdGeom.Sphere of ``scene`` at the cheapest level whose error
+    stays under ``pixels`` pixels in every frame.
+
+    cameras: the CameraStates of every frame (and shutter sample) the database serves;
+    modes: the light-speed modes in use (True = infinite).
+    Returns (scene, {surface prim path: segments}); the scene is ``scene`` itself when it
+    has no analytic sphere. Surfaces without ``sphere`` are untouched.
+    """
+    import dataclasses
+
+    from .tessellate import DEFAULT_SPHERE_SEGMENTS
+
+    if not any(s.sphere is not None for b in scene.bodies for s in b.surfaces):
+        return scene, {}
+    cameras = list(cameras)
+    angle = min((min_pixel_angle(c, width, height) for c in cameras), default=np.inf)
+    mirrors = max_depth > 0 and any(s.material.metallic > 0.0 for b in scene.bodies for s in b.surfaces)
+    chosen: dict[str, int] = {}
+    bodies = []
+    for body in scene.bodies:
+        surfaces = []
+        changed = False
+        beta = body.speed
+        stretch = 1.0 if not body.decoupled else (1.0 / np.sqrt(1.0 - beta * beta) if beta < 1.0 else np.inf)
+        for surf in body.surfaces:
+            if surf.sphere is None or not np.isfinite(stretch) or not cameras:
+                surfaces.append(surf)
+                continue
+            radius, m = surf.sphere
+            m = np.asarray(m, dtype=np.float64).reshape(4, 4)
+            r_world = float(radius) * float(np.linalg.svd(m[:3, :3], compute_uv=False).max())
+            distance = _sphere_view_distance(body, m[3, :3], r_world, cameras, modes)
+            if np.isnan(distance):  # no bound on the magnification: keep the reader's tessellation
+                surfaces.append(surf)
+                continue
+            n = sphere_segments_for_view(r_world, distance / stretch, angle, pixels=pixels)
+            if mirrors:  # reflections can magnify: never coarser than the reader's default
+                n = max(n, DEFAULT_SPHERE_SEGMENTS)
+            chosen[surf.prim_path] = n
+            surfaces.append(retessellate_sphere(surf, n))
+            changed = True
+        bodies.append(dataclasses.replace(body, surfaces=tuple(surfaces)) if changed else body)
+    return dataclasses.replace(scene, bodies=tuple(bodies)), chosen

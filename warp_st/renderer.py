@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .conventions import LightSpeed, Precision
-from .extrude import SpacetimeMesh, extrude_scene
+from .extrude import SpacetimeMesh, adapt_sphere_tessellation, extrude_scene
 from .film import Image, quantize_time
 from .limits import check_resources, resolve_max_memory
 from .scene import CameraState, Scene, SceneError
@@ -205,14 +205,18 @@ class Renderer:
         windows = None
         # The shutter moves each camera event along its worldline by up to `shutter`.
         cams = cams + [_advanced(c, self.shutter) for c in cams if self.shutter > 0.0 and self.samples > 1]
+        # UsdGeom.Spheres: the cheapest tessellation within half a pixel in every frame.
+        scene, self.sphere_segments = adapt_sphere_tessellation(
+            self.scene, cams, width=self.width, height=self.height,
+            modes=sorted(m == LightSpeed.INFINITE for m in modes), max_depth=self.max_depth)
         for mode in modes:  # hull of the windows of every light-speed mode in use
-            w = visibility_windows(self.scene, cams, infinite=mode == LightSpeed.INFINITE, max_depth=self.max_depth)
+            w = visibility_windows(scene, cams, infinite=mode == LightSpeed.INFINITE, max_depth=self.max_depth)
             windows = w if windows is None else [_hull(a, b) for a, b in zip(windows, w)]
         # Refuse before allocating: the tetrahedron count is known from the windows.
-        self.memory_estimate = check_resources(self.scene, windows, width=self.width, height=self.height,
+        self.memory_estimate = check_resources(scene, windows, width=self.width, height=self.height,
                                                samples=self.samples, max_depth=self.max_depth,
                                                max_memory=self.max_memory)
-        mesh, bvh = build_database(self.scene, windows)
+        mesh, bvh = build_database(scene, windows)
         t2 = time.perf_counter()
         t1 = t2 - bvh.build_seconds
         tc = time.perf_counter()

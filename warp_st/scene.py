@@ -54,6 +54,11 @@ class Surface:
     triangles: vertex indices into ``points``, shape (T, 3), int64.
     normals: optional per-point shading normals in world space, shape (P, 3),
         unit length (e.g. a tessellated sphere); None means flat shading.
+    sphere: for a UsdGeom.Sphere, the analytic shape the triangles approximate:
+        (radius, world_from_local 4x4 float64 in USD's row-vector convention,
+        p_world = p_local @ M[:3, :3] + M[3, :3]); the renderer re-tessellates it
+        for the resolution (``warp_st.extrude.adapt_sphere_tessellation``). None for
+        every other surface (its triangles are exact).
     """
 
     prim_path: str
@@ -61,6 +66,7 @@ class Surface:
     triangles: np.ndarray
     material: Material = Material()
     normals: np.ndarray | None = None
+    sphere: tuple[float, np.ndarray] | None = None
 
 
 @dataclass(frozen=True, eq=False)

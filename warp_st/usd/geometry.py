@@ -218,12 +218,17 @@ class GprimReader:
             what = {"Sphere": "radius", "Cube": "size"}.get(str(prim.GetTypeName()), "points")
             raise self.where.error(prim, what, f"world-space coordinates (after the transforms of the prim, its "
                                                f"ancestors and instancers) are not finite or exceed +-{MAX_MAGNITUDE:g}")
+        sphere = None
+        if prim.IsA(UsdGeom.Sphere):  # the analytic shape, for re-tessellation at the render's resolution
+            radius = A.real(self.where, prim, "radius", 1.0, positive=True)
+            sphere = (float(radius), np.array(world_from_local, dtype=np.float64).reshape(4, 4))
         return Surface(
             prim_path=label or str(prim.GetPath()),
             points=points,
             triangles=triangles,
             material=self.material(prim),
             normals=normals,
+            sphere=sphere,
         )
 
     def _local_mesh(self, prim):
