@@ -840,7 +840,10 @@ def run_worker(kind: str, paths: list[Path], results: Path, timeout: float) -> d
         culprit = next((c for c in started if c not in ended), None)
         pytest.fail(f"{died}; case running: {culprit}")
     bugs = {c: r["problem"] for c, r in ended.items() if r["outcome"] == "bug"}
-    assert not bugs, "\n\n".join(f"{c}:\n{p}" for c, p in list(bugs.items())[:3])
+    if bugs:
+        kinds = sorted({p.strip().splitlines()[-1][:200] for p in bugs.values()})
+        pytest.fail(f"{len(bugs)} of {len(paths)} cases broke the law; kinds: {kinds}\n\n"
+                    + "\n\n".join(f"{c}:\n{p}" for c, p in list(bugs.items())[:3]))
     assert len(ended) == len(paths)
     counts = {}
     for r in ended.values():

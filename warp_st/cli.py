@@ -368,7 +368,7 @@ def _uses_crate_layers(path: Path, depth: int = 0, seen: set | None = None) -> b
         seen.add(path)
         with open(path, "rb") as fh:
             data = fh.read(64 << 20)
-    except OSError:
+    except (OSError, ValueError):  # unreadable, or a name with a NUL byte
         return False
     if data.startswith(_CRATE_MAGIC):
         return True

@@ -121,7 +121,10 @@ def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bo
         if win is None:
             out.append(None)
             continue
-        pad = 1e-6 * (1.0 + max(abs(win[0]), abs(win[1])))
+        # Rounding room only: float64 keeps 1e-16 relative, so 1e-12 of the absolute
+        # time plus 1e-6 of the window's length (a pad of 1e-6 |t| doubled the
+        # database at t = 1e6).
+        pad = 1e-12 * (1.0 + max(abs(win[0]), abs(win[1]))) + 1e-6 * (win[1] - win[0])
         lo = max(win[0] - pad, body.lifetime[0])
         hi = min(win[1] + pad, body.lifetime[1])
         out.append((float(lo), float(hi)) if lo < hi else None)
