@@ -48,7 +48,6 @@ from pathlib import Path
 import numpy as np
 
 from .extrude import SWEEP_FRACTION
-
 from .scene import SceneError  # numpy only: no warp / pxr import until a suite runs
 
 __all__ = [
