@@ -677,6 +677,7 @@ def test_wild_stage_renders_or_names_the_file(tmp_path_factory, files):
 @fuzz_settings(1500)
 @given(files=wild_stage())
 def test_wild_stage_many(tmp_path_factory, files):
+    STATS["wild"] = STATS.get("wild", 0) + 1
     wild_case(tmp_path_factory.mktemp("wild"), files)
 
 
@@ -776,10 +777,11 @@ for case in cases:
             except SceneError as exc:
                 assert name in str(exc), str(exc)
         outcome = "ok" if code == 0 else "error"
+        message = stderr.strip()[-300:] if code != 0 else None
     except BaseException as exc:  # noqa: BLE001 - the law under test: nothing escapes
         problem = "".join(traceback.format_exception(exc))[-2000:]
-        outcome = "bug"
-    emit({"case": path, "state": "end", "outcome": outcome, "problem": problem})
+        outcome, message = "bug", None
+    emit({"case": path, "state": "end", "outcome": outcome, "problem": problem, "message": message})
 '''
 
 

@@ -132,3 +132,18 @@ def test_watertight_at_shared_edges_and_vertices(velocity):
     # They hit at the aimed event, or earlier on the ray where another face is nearer.
     late = s > dist + 1e-3
     assert not late.any(), f"{late.sum()} rays passed the aimed event (s up to {s.max():.4f})"
+
+
+def test_traversal_stack_holds_the_deepest_tree():
+    """The fixed traversal stack (zero-initialised per ray) must hold the BVH's depth
+    bound, and a built tree must respect that bound (an overflow would be reported as an
+    error at render time, never silent)."""
+    from warp_st.bvh import MAX_DEPTH, build_bvh
+    from warp_st.kernels.trace import STACK_SIZE
+
+    assert STACK_SIZE >= MAX_DEPTH
+    rng = np.random.default_rng(2)
+    # A badly clustered set: geometric spacing drives the SAH to lopsided splits.
+    c = np.column_stack([np.zeros(20000), 2.0 ** -np.arange(20000) % 1, rng.random((20000, 2))])
+    bvh = build_bvh(c - 1e-3, c + 1e-3)
+    assert bvh.depth <= MAX_DEPTH

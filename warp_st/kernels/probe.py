@@ -4,7 +4,7 @@ import warp as wp
 __all__ = ["make_probe"]
 
 
-def make_probe(scalar, vec3, vec4, Geometry, trace, hit_tet, ray_basis):
+def make_probe(scalar, vec3, vec4, Geometry, trace, hit_tet, ray_basis, to_d):
     FAR = 1.0e30
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -37,10 +37,13 @@ def make_probe(scalar, vec3, vec4, Geometry, trace, hit_tet, ray_basis):
         o = origins[i]
         n = dirs[i]
         u, w = ray_basis(n)
+        nd = to_d(n)
+        ud = to_d(u)
+        wd = to_d(w)
         best = scalar(FAR)
         best_tet = int(-1)
         for ti in range(tet_count):
-            h, s, _lam = hit_tet(geo, ti, o, n, u, w, finite, scalar(0.0), best)
+            h, s, _lam = hit_tet(geo, ti, o, nd, ud, wd, finite, scalar(0.0), best)
             if h:
                 best = s
                 best_tet = ti

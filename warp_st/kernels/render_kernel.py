@@ -24,10 +24,10 @@ class Kernels:
         self.vec3 = wp.types.vector(3, scalar)
         self.vec4 = wp.types.vector(4, scalar)
         self.mat33 = wp.types.matrix((3, 3), scalar)
-        Geometry, trace, hit_tet, basis = make_trace(scalar)
+        Geometry, trace, hit_tet, basis, to_d = make_trace(scalar)
         self.Geometry = Geometry
         self.Shading, self.Camera, self.Film, self.render_pixels = _make_render(scalar, self, trace, Geometry)
-        self._probe_parts = (scalar, self.vec3, self.vec4, Geometry, trace, hit_tet, basis)
+        self._probe_parts = (scalar, self.vec3, self.vec4, Geometry, trace, hit_tet, basis, to_d)
         self._probe = None
 
     @property

@@ -23,8 +23,9 @@ import warp as wp
 
 __all__ = ["make_trace", "STACK_SIZE"]
 
-#: Traversal stack entries; larger than the BVH depth bound (bvh.MAX_DEPTH).
-STACK_SIZE = 96
+#: Traversal stack entries: the BVH depth bound (bvh.MAX_DEPTH). Zero-initialised per
+#: ray, so no larger than needed.
+STACK_SIZE = 64
 
 
 def make_trace(scalar):
@@ -92,14 +93,13 @@ def make_trace(scalar):
         return wp.abs(q[0]) + wp.abs(q[1]) + wp.abs(q[2])
 
     @wp.func
-    def hit_tet(g: Geometry, ti: int, o: vec4, n: vec3, u: vec3, w: vec3, finite: int, s_min: scalar, s_max: scalar):
-        """(hit, s, barycentrics) of the ray with tetrahedron ti, for s in (s_min, s_max)."""
+    def hit_tet(g: Geometry, ti: int, o: vec4, nd: dvec3, ud: dvec3, wd: dvec3, finite: int, s_min: scalar, s_max: scalar):
+        """(hit, s, barycentrics) of the ray with tetrahedron ti, for s in (s_min, s_max).
+
+        nd, ud, wd: the ray's orthonormal basis in float64 (see ``ray_basis``)."""
         # The events are stored inline per tetrahedron (one cache line, no gather); they
         # are bit-identical copies of the shared vertices, which watertightness needs.
         base = 4 * ti
-        nd = to_d(n)
-        ud = to_d(u)
-        wd = to_d(w)
         q0, s0 = project(g.tet_vert[base], o, nd, ud, wd, finite)
         q1, s1 = project(g.tet_vert[base + 1], o, nd, ud, wd, finite)
         q2, s2 = project(g.tet_vert[base + 2], o, nd, ud, wd, finite)
@@ -198,6 +198,9 @@ def make_trace(scalar):
         Near child first with a fixed stack; an overflow is reported, never silent.
         """
         u, w = ray_basis(n)
+        nd = to_d(n)
+        ud = to_d(u)
+        wd = to_d(w)
         dt = scalar(0.0)
         if finite != 0:
             dt = scalar(-1.0)
@@ -222,10 +225,16 @@ def make_trace(scalar):
             if count > 0:
                 for k in range(count):
                     ti = first + k
-                    tri = g.tet_tri[ti]
+                    tri = int(-2)
+                    if skip_tri >= 0 or skip_body >= 0:
+                        tri = g.tet_tri[ti]
                     if tri != skip_tri:
-                        h, s, lam = hit_tet(g, ti, o, n, u, w, finite, s_min, best)
-                        if h and (s >= skip_dist or g.tri_body[tri] != skip_body):
+                        h, s, lam = hit_tet(g, ti, o, nd, ud, wd, finite, s_min, best)
+                        if h and skip_body >= 0 and s < skip_dist:
+                            # (Warp may evaluate both sides of `or`: no index with tri = -2.)
+                            if g.tri_body[tri] == skip_body:
+                                h = False
+                        if h:
                             best = s
                             best_tet = ti
                             best_lam = lam
@@ -261,4 +270,4 @@ def make_trace(scalar):
             node = next_node
         return best_tet, best, best_lam, visits, overflow
 
-    return Geometry, trace, hit_tet, ray_basis
+    return Geometry, trace, hit_tet, ray_basis, to_d

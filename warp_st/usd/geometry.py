@@ -79,6 +79,30 @@ def _blame_transform(where: Where, prim, time):
                                              f"is not finite or exceeds +-{MAX_MAGNITUDE:g}")
 
 
+def _blame_largest_op(where: Where, prim, time=DEFAULT_TIME):
+    """SceneError naming the xformOp of largest magnitude on the prim or an ancestor."""
+    best = None
+    p = prim
+    while p and not p.IsPseudoRoot():
+        if p.IsA(UsdGeom.Xformable):
+            for op in UsdGeom.Xformable(p).GetOrderedXformOps():
+                if op.GetOpType() in (UsdGeom.XformOp.TypeOrient,) or UsdGeom.XformOp.GetOpTypeToken(
+                        op.GetOpType()).startswith("rotate"):
+                    continue  # rotations do not change magnitudes
+                try:
+                    size = float(np.abs(np.asarray(op.Get(time), dtype=np.float64)).max())
+                except (TypeError, ValueError, Tf.ErrorException):
+                    continue
+                if best is None or size > best[0]:
+                    best = (size, p, op.GetName(), op.Get(time))
+        p = p.GetParent()
+    if best is None:
+        return where.error(prim, "xformOpOrder", f"the world-space coordinates exceed +-{MAX_MAGNITUDE:g}")
+    _, p, name, value = best
+    return where.error(p, name, f"value {value} puts the world-space coordinates of {prim.GetPath()} "
+                                f"beyond +-{MAX_MAGNITUDE:g}")
+
+
 def is_hidden(prim) -> bool:
     """True when the prim (and so its whole subtree) is not rendered.
 
@@ -212,9 +236,13 @@ class GprimReader:
         points, triangles, normals = local
         if world_from_local is None:
             world_from_local = world_transform(self.where, prim, lambda: self.xf.GetLocalToWorldTransform(prim))
+        local_size = float(np.abs(points).max()) if len(points) else 0.0
         with np.errstate(over="ignore", invalid="ignore"):
             points, triangles, normals = transform_surface(points, triangles, normals, world_from_local)
         if not _within(points):
+            # Both factors are within bounds; blame the larger one: the transform or the shape.
+            if float(np.abs(np.asarray(world_from_local)).max()) >= local_size:
+                raise _blame_largest_op(self.where, prim)
             what = {"Sphere": "radius", "Cube": "size"}.get(str(prim.GetTypeName()), "points")
             raise self.where.error(prim, what, f"world-space coordinates (after the transforms of the prim, its "
                                                f"ancestors and instancers) are not finite or exceed +-{MAX_MAGNITUDE:g}")
