@@ -577,7 +577,7 @@ def wild_body(draw, name: str, depth: int = 0) -> str:
     return f'def Xform "{name}"{meta}\n{{\n' + "\n".join(lines) + "\n" + children + "}\n"
 
 
-#: Depth of the Xform chains of the wild stages (the slow test goes deeper).
+#: Depth of the Xform chains of the wild stages (test_deep_hierarchy goes to 3000).
 CHAIN_DEPTH = 30
 
 ARCS = {
@@ -917,3 +917,24 @@ def test_empty_stage_near_the_origin_renders_background():
                 img = warp_st.render(scene, width=8, height=6, light_speed=light_speed, precision=precision)
                 assert (img.object_id == 0).all()
                 check_image(img, scene)
+
+
+def test_deep_hierarchy(tmp_path):
+    """A body 3000 Xforms deep, each translating by 1e-4: read without recursion limits,
+    the transforms composed exactly (pivot at x = 0.3), rendered."""
+    depth = 3000
+    chain = 'def Cube "C"\n{\ndouble size = 1\n}\n'
+    for level in range(depth):
+        api = ' (\n prepend apiSchemas = ["SpacetimeBodyAPI"]\n)' if level == 0 else ""
+        chain = (f'def Xform "L{level}"{api}\n{{\ndouble3 xformOp:translate = (0.0001, 0, 0)\n'
+                 f'uniform token[] xformOpOrder = ["xformOp:translate"]\n{chain}}}\n')
+    path = tmp_path / "deep.usda"
+    path.write_text('#usda 1.0\ndef Camera "Cam"\n{\ndouble3 xformOp:translate = (0, 0, 10)\n'
+                    'uniform token[] xformOpOrder = ["xformOp:translate"]\n}\n' + chain)
+    with watchdog(120):
+        result = render_or_scene_error(path)
+    assert not isinstance(result, SceneError), result
+    scene = warp_st.load(str(path))
+    assert len(scene.bodies) == 1 and scene.bodies[0].prim_path.count("/") == depth
+    assert abs(scene.bodies[0].surfaces[0].points[:, 0].mean() - 0.0001 * depth) < 1e-9
+    assert (result.object_id == 1).any()

@@ -73,12 +73,20 @@ class Where:
         When the offending opinion lives in another layer (a reference, a
         sublayer) that layer is named too, so the user knows which file to fix.
         """
-        prim_path = str(prim.GetPath()) if hasattr(prim, "GetPath") else (str(prim) if prim else None)
+        prim_path = _text(prim.GetPath()) if hasattr(prim, "GetPath") else (_text(prim) if prim else None)
         if attribute and hasattr(prim, "GetAttribute"):
             other = _authoring_layer(prim, attribute)
             if other and Path(other).name != Path(self.file).name:
                 problem = f"{problem} (authored in {other})"
         return SceneError.at(self.file, prim_path, attribute, " ".join(problem.split()))
+
+
+def _text(obj) -> str:
+    """str(obj), or a placeholder when a damaged file gave it bytes that are not UTF-8."""
+    try:
+        return str(obj)
+    except UnicodeDecodeError:
+        return "<text that is not UTF-8>"
 
 
 def _authoring_layer(prim, attribute: str) -> str | None:
@@ -135,7 +143,7 @@ def _raw(where: Where, prim, name: str, kinds: frozenset[str], what: str, time, 
         return None, False
     type_name = _authored_type(attr)
     if type_name.isArray != array or type_name.type.typeName not in kinds:
-        raise where.error(prim, name, f"must be {what}, not {type_name}")
+        raise where.error(prim, name, f"must be {what}, not {_text(type_name)}")
     if (time == DEFAULT_TIME and attr.GetNumTimeSamples() > 0
             and attr.GetResolveInfo(DEFAULT_TIME).GetSource() != Usd.ResolveInfoSourceDefault):
         raise where.error(

@@ -58,7 +58,7 @@ class CameraEvaluator:
     def __call__(self, path: str | None = None, frame: float = 0.0) -> CameraState:
         try:
             return self._evaluate(path, frame)
-        except Tf.ErrorException as exc:  # a value a corrupt file cannot unpack
+        except (Tf.ErrorException, UnicodeDecodeError) as exc:  # a value a corrupt file cannot unpack
             raise SceneError.at(self.where.file, str(path or self.default_camera), None,
                                 f"cannot be read: {tf_message(exc)}") from None
 

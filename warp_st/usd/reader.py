@@ -106,7 +106,7 @@ class _StageReader:
         it = iter(Usd.PrimRange(self.stage.GetPseudoRoot(), _PREDICATE))
         try:
             self._visit_all(it, hidden, owners)
-        except Tf.ErrorException as exc:  # a corrupt crate file fails when a value is unpacked
+        except (Tf.ErrorException, UnicodeDecodeError) as exc:  # a corrupt crate file fails when a value is unpacked
             raise self.where.error(self._current, None, f"cannot be read: {tf_message(exc)}") from None
 
     def _visit_all(self, it, hidden, owners) -> None:
@@ -249,5 +249,5 @@ def load_scene(source, *, no_references: bool = False) -> Scene:
     reopen = None if isinstance(source, Usd.Stage) else os.path.abspath(os.fspath(source))
     try:
         return _StageReader(stage, where).read(reopen=reopen, no_references=no_references)
-    except Tf.ErrorException as exc:  # a value USD cannot unpack outside the traversal
+    except (Tf.ErrorException, UnicodeDecodeError) as exc:  # a value USD cannot unpack outside the traversal
         raise SceneError.at(where.file, None, None, f"cannot be read: {tf_message(exc)}") from None

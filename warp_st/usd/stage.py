@@ -110,6 +110,8 @@ def _safe_str(obj) -> str:
 def tf_message(exc: Exception) -> str:
     """The first quoted message of a Tf error, on one line (the parser's is the most precise)."""
     messages = []
+    if isinstance(exc, UnicodeDecodeError):
+        return "the file holds text that is not UTF-8"
     try:
         text = str(exc)
     except UnicodeDecodeError:  # USD quotes the offending bytes, and they are not UTF-8
