@@ -39,7 +39,6 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 SCENES = ("parade", "spheres", "cubes")
-PARADE_USD = ROOT / "usd_scenes" / "relativistic_parade.usda"
 
 
 # --------------------------------------------------------------------------- options
@@ -77,166 +76,15 @@ def parse_args(argv=None):
 # --------------------------------------------------------------------------- scenes
 
 
-def _camera_fn(state):
-    def camera_state(path, frame):
-        return dataclasses.replace(state, time=float(state.time))
-
-    return camera_state
-
-
-def _synthetic_scene(name, bodies, lights, cam_state):
-    from warp_st.scene import RenderSettings, Scene
-
-    return Scene(
-        source=f"<bench:{name}>",
-        bodies=tuple(bodies),
-        lights=tuple(lights),
-        cameras=(cam_state.prim_path,),
-        settings=RenderSettings(),
-        camera_state=_camera_fn(cam_state),
-        default_camera=cam_state.prim_path,
-    )
-
-
-def _bench_camera(focal=27.0):
-    from warp_st.scene import CameraState
-
-    # At rest at the origin at t_c = 0, looking down -Z, +Y up; 36 mm aperture.
-    return CameraState("/Camera", 0.0, np.zeros(3), np.eye(3), focal_length=focal, horizontal_aperture=36.0, vertical_aperture=20.25)
-
-
-def _sun():
-    from warp_st.scene import Light
-
-    d = np.array([0.3, 0.8, 0.5])
-    return Light("distant", (1.0, 1.0, 1.0), direction=tuple(d / np.linalg.norm(d)), prim_path="/Sun")
-
-
-#: (speed, direction, decoupled) cycled over the bodies of the sphere grid.
-_SPHERE_MOTIONS = (
-    (0.0, (1, 0, 0), False),
-    (0.5, (1, 0, 0), False),
-    (0.9, (1, 0, 0), False),
-    (0.0, (1, 0, 0), False),
-    (0.7, (0, 1, 0), False),
-    (0.9, (-1, 0, 1), False),
-    (0.5, (1, 0, 0), True),
-    (0.9, (-1, 0, 0), True),
-    (0.6, (0, -1, 0), True),
-    (0.3, (1, 1, 0), False),
+# Scene builders and machine helpers are shared with `warp-st bench` (warp_st/bench.py).
+from warp_st.bench import (  # noqa: E402
+    cube_cloud_scene,
+    load_parade,
+    machine_info,
+    sphere_grid_scene,
+    static_version,
+    summarize,
 )
-
-
-def sphere_grid_scene(segments: int, n: int = 10):
-    """n x n tessellated unit spheres at z = -30, mixed velocities, no lights (unlit
-    albedo: the render is primary rays only; a light would also widen every moving
-    body's time window for shadow rays, ~10x more slices on this wide grid).
-
-    Each body's reference time is chosen so its centre is seen (on the camera's past
-    lightcone) at its grid position: t_ref = t_c - |centre - camera|.
-    """
-    from warp_st import tessellate
-    from warp_st.scene import Body, Material, Surface
-
-    cam = _bench_camera()
-    pts, tris, nrm = tessellate.sphere(1.0, segments)
-    bodies = []
-    for iy in range(n):
-        for ix in range(n):
-            i = iy * n + ix
-            centre = np.array([(ix - (n - 1) / 2) * 4.0, (iy - (n - 1) / 2) * 2.25, -30.0])
-            speed, direction, decoupled = _SPHERE_MOTIONS[i % len(_SPHERE_MOTIONS)]
-            d = np.asarray(direction, float)
-            v = speed * d / np.linalg.norm(d)
-            colour = tuple(0.25 + 0.6 * np.array([ix / max(n - 1, 1), iy / max(n - 1, 1), 0.5]))
-            path = f"/Grid/Sphere_{iy}_{ix}"
-            surf = Surface(path, pts + centre, tris, Material(diffuse=colour), nrm)
-            t_ref = cam.time - float(np.linalg.norm(centre - cam.position))
-            bodies.append(Body(path, (surf,), centre, v, t_ref, (-math.inf, math.inf), decoupled))
-    return _synthetic_scene("spheres", bodies, [], cam)
-
-
-def cube_cloud_scene(count: int, seed: int = 1):
-    """``count`` cubes on a jittered 3D grid in front of the camera, random velocities:
-    20% at rest, the rest up to 0.95c in random directions, one third of the moving
-    ones Lorentz decoupled; one distant light."""
-    from warp_st import tessellate
-    from warp_st.scene import Body, Material, Surface
-
-    rng = np.random.default_rng(seed)
-    cam = _bench_camera()
-    side = max(1, round(count ** (1.0 / 3.0)))
-    pts, tris = tessellate.cube(0.8)
-    bodies = []
-    for i in range(count):
-        ix, iy, iz = i % side, (i // side) % side, i // (side * side)
-        centre = np.array([(ix - (side - 1) / 2) * 3.2, (iy - (side - 1) / 2) * 1.8, -14.0 - 2.0 * iz])
-        centre += rng.uniform(-0.3, 0.3, 3)
-        if rng.random() < 0.2:
-            v, decoupled = np.zeros(3), False
-        else:
-            d = rng.normal(size=3)
-            v = rng.uniform(0.1, 0.95) * d / np.linalg.norm(d)
-            decoupled = bool(rng.random() < 1.0 / 3.0)
-        path = f"/Cubes/Cube_{i}"
-        surf = Surface(path, pts + centre, tris, Material(diffuse=tuple(rng.uniform(0.2, 0.9, 3))))
-        t_ref = cam.time - float(np.linalg.norm(centre - cam.position))
-        bodies.append(Body(path, (surf,), centre, v, t_ref, (-math.inf, math.inf), decoupled))
-    return _synthetic_scene("cubes", bodies, [_sun()], cam)
-
-
-def load_parade():
-    import warp_st
-
-    return warp_st.load(str(PARADE_USD))
-
-
-def static_version(scene):
-    """Every body at rest at its authored position, unbounded lifetime."""
-    bodies = tuple(
-        dataclasses.replace(b, velocity=np.zeros(3), decoupled=False, lifetime=(-math.inf, math.inf)) for b in scene.bodies
-    )
-    return dataclasses.replace(scene, bodies=bodies)
-
-
-# --------------------------------------------------------------------------- helpers
-
-
-def summarize(values):
-    return {"median": statistics.median(values), "min": min(values), "max": max(values), "runs": list(values)}
-
-
-def machine_info():
-    import warp as wp
-
-    model = "unknown"
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    model = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except AttributeError:
-        usable = os.cpu_count()
-    try:
-        load = os.getloadavg()
-    except OSError:
-        load = (float("nan"),) * 3
-    return {
-        "cpu": model,
-        "cpu_count": os.cpu_count(),
-        "usable_cores": usable,
-        "warp": wp.__version__,
-        "numpy": np.__version__,
-        "python": platform.python_version(),
-        "platform": platform.platform(),
-        "loadavg": [round(x, 2) for x in load],
-        "date": datetime.datetime.now().isoformat(timespec="seconds"),
-    }
 
 
 def cache_entries(wp):
