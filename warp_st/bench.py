@@ -922,12 +922,8 @@ def sweep_factor(factor: float):
         _ORIGINAL_BODY_SLICES.append(ex.body_slices)
     original = _ORIGINAL_BODY_SLICES[0]
 
-    def body_slices(body, window, *, max_segments=4096):
-        t0, t1 = float(window[0]), float(window[1])
-        size = ex._body_size(body) * factor
-        sweep = body.speed * (t1 - t0)
-        k = 1 if sweep <= size else int(min(np.ceil(sweep / size), max_segments))
-        return np.linspace(t0, t1, k + 1)
+    def body_slices(body, window, *, max_segments=4096, fraction=None):
+        return original(body, window, max_segments=max_segments, fraction=factor)
 
     ex.body_slices = body_slices
     try:

@@ -28,6 +28,7 @@ __all__ = [
     "contraction_matrix",
     "extrude_scene",
     "body_slices",
+    "surface_triangles",
     "adapt_sphere_tessellation",
     "sphere_segments_for_view",
     "min_pixel_angle",
@@ -86,7 +87,9 @@ def contraction_matrix(velocity: np.ndarray, decoupled: bool) -> np.ndarray:
 SWEEP_FRACTION = 0.5
 
 
-def body_slices(body: Body, window: tuple[float, float], *, max_segments: int = 4096) -> np.ndarray:
+def body_slices(
+    body: Body, window: tuple[float, float], *, max_segments: int = 4096, fraction: float | None = None
+) -> np.ndarray:
     """Slice times covering ``window`` for one body, ascending, at least two.
 
     The window is split into K segments so that the body sweeps at most half its size
@@ -95,10 +98,17 @@ def body_slices(body: Body, window: tuple[float, float], *, max_segments: int = 
     for twice the tetrahedra; a quarter gained only 10% more for twice again.)
     """
     t0, t1 = float(window[0]), float(window[1])
-    size = SWEEP_FRACTION * _body_size(body)
+    size = (SWEEP_FRACTION if fraction is None else fraction) * _body_size(body)
     sweep = body.speed * (t1 - t0)
     k = 1 if sweep <= size else int(min(np.ceil(sweep / size), max_segments))
     return np.linspace(t0, t1, k + 1)
+
+
+def surface_triangles(surf) -> np.ndarray:
+    """A surface's triangles as (T, 3) int64, without degenerate index triples (no surface)."""
+    tris = np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3)
+    keep = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
+    return tris[keep]
 
 
 def _body_size(body: Body) -> float:
@@ -126,10 +136,7 @@ def extrude_scene(scene: Scene, windows: list[tuple[float, float] | None]) -> Sp
         A = contraction_matrix(body.velocity, body.decoupled)
         A_inv_t = np.linalg.inv(A).T
         for surf in body.surfaces:
-            tris = np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3)
-            # Degenerate index triples carry no surface.
-            keep = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
-            tris = tris[keep]
+            tris = surface_triangles(surf)
             if len(tris) == 0:
                 continue
             pts = np.asarray(surf.points, dtype=np.float64)

@@ -21,7 +21,7 @@ from .extrude import SpacetimeMesh, adapt_sphere_tessellation, extrude_scene
 from .film import Image, quantize_time
 from .limits import check_resources, resolve_max_memory
 from .scene import CameraState, Scene, SceneError
-from .visibility import visibility_windows
+from .visibility import hull, visibility_windows
 
 __all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION"]
 
@@ -211,7 +211,7 @@ class Renderer:
             modes=sorted(m == LightSpeed.INFINITE for m in modes), max_depth=self.max_depth)
         for mode in modes:  # hull of the windows of every light-speed mode in use
             w = visibility_windows(scene, cams, infinite=mode == LightSpeed.INFINITE, max_depth=self.max_depth)
-            windows = w if windows is None else [_hull(a, b) for a, b in zip(windows, w)]
+            windows = w if windows is None else [hull(a, b) for a, b in zip(windows, w)]
         # Refuse before allocating: the tetrahedron count is known from the windows.
         self.memory_estimate = check_resources(scene, windows, width=self.width, height=self.height,
                                                samples=self.samples, max_depth=self.max_depth,
@@ -358,14 +358,6 @@ def _advanced(cam: CameraState, dt: float) -> CameraState:
     import dataclasses
 
     return dataclasses.replace(cam, time=cam.time + dt, position=np.asarray(cam.position) + np.asarray(cam.velocity) * dt)
-
-
-def _hull(a, b):
-    if a is None:
-        return b
-    if b is None:
-        return a
-    return (min(a[0], b[0]), max(a[1], b[1]))
 
 
 def build_database(scene: Scene, windows: list) -> tuple[SpacetimeMesh, "FlatBVH"]:

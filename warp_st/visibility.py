@@ -24,7 +24,7 @@ import numpy as np
 from .extrude import contraction_matrix
 from .scene import Body, CameraState, Scene
 
-__all__ = ["body_ball", "frame_window", "visibility_windows"]
+__all__ = ["body_ball", "frame_window", "hull", "visibility_windows"]
 
 #: Cap on how far into the past a window may reach when the bound is unbounded
 #: (only for a decoupled body at exactly |v| = 1), in multiples of the scene size.
@@ -87,7 +87,8 @@ def frame_window(m0, rho, v, t_ref, t_c, c, *, infinite=False, extra=0.0):
     return (float(roots[0] + t_ref), float(min(roots[-1] + t_ref, t_c + rho)))
 
 
-def _hull(a, b):
+def hull(a, b):
+    """The smallest interval holding windows a and b (None: no window)."""
     if a is None:
         return b
     if b is None:
@@ -106,7 +107,7 @@ def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bo
     for body, (m0, rho) in zip(scene.bodies, balls):
         win = None
         for cam in cameras:
-            win = _hull(win, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position, infinite=infinite))
+            win = hull(win, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position, infinite=infinite))
         windows.append(win)
 
     mirrors = [i for i, b in enumerate(scene.bodies) if any(s.material.metallic > 0.0 for s in b.surfaces)]
@@ -158,7 +159,7 @@ def _extend_for_mirrors(scene, balls, windows, cameras, mirrors, max_depth):
     out = []
     for body, (m0, rho), win in zip(scene.bodies, balls, windows):
         for cam in cameras:
-            win = _hull(win, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position,
+            win = hull(win, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position,
                                           extra=2.0 * max_depth * reach))
         out.append(win)
     return out
@@ -192,11 +193,11 @@ def _extend_for_shadows(scene, balls, windows, *, infinite):
     for body, (m0, rho), win in zip(scene.bodies, balls, windows):
         v = np.asarray(body.velocity, dtype=np.float64)
         if infinite:
-            win = _hull(win, (t_lo - rho, t_hi + rho))
+            win = hull(win, (t_lo - rho, t_hi + rho))
         elif float(np.linalg.norm(v)) >= 1.0:
             fat = rho + hit_radius
             for t_c in (t_lo, t_hi):
-                win = _hull(win, frame_window(m0, fat, v, body.reference_time, t_c, hit_centre))
+                win = hull(win, frame_window(m0, fat, v, body.reference_time, t_c, hit_centre))
         else:
             centre_at = lambda t: m0 + v * (t - body.reference_time)  # noqa: E731
             for light in scene.lights:
@@ -209,7 +210,7 @@ def _extend_for_shadows(scene, balls, windows, *, infinite):
                     phase = lambda t: t - float(np.linalg.norm(centre_at(t) - L))  # noqa: E731
                     k_lo = t_lo - float(np.linalg.norm(hit_centre - L)) - hit_radius - rho
                 lo = _solve_increasing(phase, k_lo, t_lo)
-                win = _hull(win, (lo, t_hi + rho))
+                win = hull(win, (lo, t_hi + rho))
         out.append(win)
     return out
 

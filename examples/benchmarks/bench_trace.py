@@ -77,6 +77,7 @@ def parse_args(argv=None):
 
 
 # Scene builders and machine helpers are shared with `warp-st bench` (warp_st/bench.py).
+from warp_st.extrude import surface_triangles  # noqa: E402
 from warp_st.bench import (  # noqa: E402
     cube_cloud_scene,
     load_parade,
@@ -171,9 +172,7 @@ def scene_triangles(scene, windows):
         if window is None or not body.surfaces:
             continue
         for surf in body.surfaces:
-            tris = np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3)
-            keep = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
-            tris = tris[keep]
+            tris = surface_triangles(surf)
             if len(tris) == 0:
                 continue
             pts = np.asarray(surf.points, dtype=np.float64)
