@@ -682,7 +682,6 @@ class Bench:
     def sequence(self):
         import warp_st
 
-        a = self.args
         scene = load_parade()
         n = 3 if self.quick else 8
         step = 4.0
@@ -798,8 +797,6 @@ class Bench:
 
     # ------------------------------------------------------------------ needs
     def needs(self):
-        from .renderer import Renderer
-
         w, h = (96, 54) if self.quick else (320, 180)
         n = 4 if self.quick else 10
         res = {"width": w, "height": h}

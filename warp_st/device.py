@@ -18,7 +18,7 @@ from .kernels import Kernels
 from .kernels.spectrum import spectral_basis_inverse
 from .scene import Light
 
-__all__ = ["StaticArrays", "upload_static", "make_geometry", "make_shading"]
+__all__ = ["StaticArrays", "make_geometry", "make_shading"]
 
 _DEVICE = "cpu"
 

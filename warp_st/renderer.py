@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .bvh import FlatBVH
 from .conventions import LightSpeed, Precision
 from .extrude import SpacetimeMesh, adapt_sphere_tessellation, extrude_scene
 from .film import Image, quantize_time
@@ -360,7 +361,7 @@ def _advanced(cam: CameraState, dt: float) -> CameraState:
     return dataclasses.replace(cam, time=cam.time + dt, position=np.asarray(cam.position) + np.asarray(cam.velocity) * dt)
 
 
-def build_database(scene: Scene, windows: list) -> tuple[SpacetimeMesh, "FlatBVH"]:
+def build_database(scene: Scene, windows: list) -> tuple[SpacetimeMesh, FlatBVH]:
     """Extrude ``scene`` over per-body time ``windows`` and build the 4D BVH.
 
     The returned mesh stores its tetrahedra in BVH leaf order (a leaf is a
