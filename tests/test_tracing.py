@@ -36,9 +36,10 @@ def _random_rays(rng, n, db, finite=True):
     return origins, dirs
 
 
+@pytest.mark.parametrize("primitive", ["prism", "tet"])
 @pytest.mark.parametrize("precision", ["float32", "float64"])
 @pytest.mark.parametrize("finite", [True, False])
-def test_bvh_closest_hit_equals_brute_force(precision, finite):
+def test_bvh_closest_hit_equals_brute_force(precision, finite, primitive):
     """The BVH is an acceleration only: on 12,000 random null rays (from events inside and
     around the bodies' lifetimes, hits and misses) it returns the same closest hit as
     testing every tetrahedron. Same intersection routine on both sides, so hit/miss must
@@ -46,7 +47,7 @@ def test_bvh_closest_hit_equals_brute_force(precision, finite):
     point (a shared face), by float rounding of the barycentric interpolation: 2e-5 of
     the scene scale (~10) in float32."""
     scene = _mixed_scene()
-    db = Database(scene, _windows(scene), precision=precision, origin=(-3, 0, 0, 0))
+    db = Database(scene, _windows(scene), precision=precision, origin=(-3, 0, 0, 0), primitive=primitive)
     rng = np.random.default_rng(7 + finite)
     origins, dirs = _random_rays(rng, 12000, db, finite)
     tet_b, s_b, visits = db.cast(origins, dirs, finite=finite)
@@ -80,8 +81,9 @@ def test_kernel_hits_match_float64_oracle():
             assert tet[i] >= 0 and s[i] <= nearest + 1e-3 * (1 + nearest)
 
 
+@pytest.mark.parametrize("primitive", ["prism", "tet"])
 @pytest.mark.parametrize("velocity", [(0, 0, 0), (0.8, 0, 0), (0.3, 0.5, -0.6)])
-def test_watertight_at_shared_edges_and_vertices(velocity):
+def test_watertight_at_shared_edges_and_vertices(velocity, primitive):
     """A closed sphere extruded (several time segments when moving) is a watertight
     world-tube: rays aimed exactly at its vertex events and at the midpoints of its
     tetrahedron edges, at the slice times where prisms meet, all hit it. Each ray is
@@ -90,14 +92,15 @@ def test_watertight_at_shared_edges_and_vertices(velocity):
     so we require the point just past the target to lie inside every face plane
     (rays through a vertex of a convex polyhedron that only graze it touch it at a
     single point and may legitimately miss). Any miss would be a ray slipping between
-    tetrahedra that share a face; faces are evaluated bit-identically in both, so the
-    required count of misses is zero, not 'few'."""
+    tetrahedra that share a face (or prisms that share an edge); shared faces and edges
+    are evaluated bit-identically on both sides, so the required count of misses is
+    zero, not 'few'."""
     from warp_st.extrude import contraction_matrix
 
     v = np.asarray(velocity, float)
     centre = np.array([0, 0, -6.0])
     body = sphere_body("/S", centre, 1.5, velocity, segments=16)
-    db = Database(scene_of(body), [(-40.0, 0.0)])
+    db = Database(scene_of(body), [(-40.0, 0.0)], primitive=primitive)
     verts = db.mesh.vertices  # (V, 4): every slice of every point
     edges = np.concatenate([db.mesh.tets[:, [a, b]] for a in range(4) for b in range(a + 1, 4)])
     edges = np.unique(np.sort(edges, axis=1), axis=0)

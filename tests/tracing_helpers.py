@@ -36,17 +36,20 @@ def scene_of(*bodies):
 class Database:
     """A scene extruded over fixed windows, uploaded for one render origin."""
 
-    def __init__(self, scene, windows, *, precision="float32", origin=(0, 0, 0, 0)):
+    def __init__(self, scene, windows, *, precision="float32", origin=(0, 0, 0, 0), primitive="tet"):
         _warp()
-        self.k = get_kernels(precision)
+        self.k = get_kernels(precision, primitive)
         self.np_scalar = np.float32 if precision == "float32" else np.float64
-        self.mesh, self.bvh = build_database(scene, windows)
+        self.mesh, self.bvh = build_database(scene, windows, primitive)
         self.static = StaticArrays(self.k, self.mesh, self.bvh)
         self.origin = np.asarray(origin, dtype=np.float64)
         self.geo = make_geometry(self.k, self.static, self.mesh, self.bvh, self.origin)
+        self.prim_tri = self.mesh.prism_tri if primitive == "prism" else self.mesh.tet_tri
 
     def cast(self, origins, dirs, *, finite=True, brute=False):
-        """(tet, s, visits) for rays with lab origins (N, 4) and unit directions (N, 3)."""
+        """(primitive, s, visits) for rays with lab origins (N, 4) and unit directions (N, 3);
+        primitive indices refer to ``mesh.tets`` or ``mesh.prisms`` (``self.prim_tri`` maps
+        them to triangles)."""
         k = self.k
         rel = np.asarray(origins, np.float64) - self.origin
         o = wp.array(rel.astype(self.np_scalar), dtype=k.vec4, device="cpu")
@@ -55,7 +58,7 @@ class Database:
         tet = wp.zeros(n, dtype=wp.int32, device="cpu")
         s = wp.zeros(n, dtype=k.scalar, device="cpu")
         if brute:
-            wp.launch(k.brute_rays, dim=n, inputs=[self.geo, self.mesh.tet_count, o, d, int(finite), tet, s], device="cpu")
+            wp.launch(k.brute_rays, dim=n, inputs=[self.geo, self.mesh.prim_count, o, d, int(finite), tet, s], device="cpu")
             return tet.numpy(), s.numpy().astype(np.float64), None
         visits = wp.zeros(n, dtype=wp.int32, device="cpu")
         wp.launch(k.cast_rays, dim=n, inputs=[self.geo, o, d, int(finite), tet, s, visits], device="cpu")

@@ -1,4 +1,4 @@
-"""A 4D bounding volume hierarchy over tetrahedra.
+"""A 4D bounding volume hierarchy over the primitives of the database (prisms or tetrahedra).
 
 ``wp.Bvh`` is 3D only, so the hierarchy over (t, x, y, z) boxes is ours: a binned
 surface-area heuristic over 4D boxes, split level by level by a Warp kernel (one thread
@@ -20,16 +20,16 @@ __all__ = ["FlatBVH", "build_bvh", "LEAF_SIZE", "MAX_DEPTH"]
 LEAF_SIZE = 4
 #: Largest primitive count in a SAH leaf (a leaf is made when the SAH says it is cheaper).
 SAH_MAX_LEAF = 4
-#: SAH costs: a node visit (two 4D box tests) against one float64 tetrahedron test
-#: (tuned on the benchmark scenes: 1 : 2 with leaves of at most 4 traced fastest).
+#: SAH costs: a node visit (two 4D box tests) against one primitive test, per primitive
+#: kind (tuned on the benchmark scenes: a float64 tetrahedron test costs about two node
+#: visits, with leaves of at most 4; a prism's comoving triangle test about one).
 SAH_COST_TRAVERSE = 1.0
-SAH_COST_INTERSECT = 2.0
+SAH_COST_INTERSECT = {"tet": 2.0, "prism": 1.0}
 #: Below this depth the SAH builder splits freely; deeper nodes are halved, so the
 #: depth stays below SAH_FREE_DEPTH + log2 N (the benchmark trees are 26-30 deep).
 SAH_FREE_DEPTH = 32
 #: Depth bound of the build (log2 N <= 32). The traversal stack holds this many entries.
 MAX_DEPTH = SAH_FREE_DEPTH + 32
-
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,14 +59,15 @@ class FlatBVH:
         return int(self.node_lo.nbytes // 2 + self.node_hi.nbytes // 2 + self.node_first.nbytes + self.node_count.nbytes)
 
 
-def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray) -> FlatBVH:
-    """Build the BVH over primitive boxes ``prim_lo``/``prim_hi`` of shape (N, 4)."""
+def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet") -> FlatBVH:
+    """Build the BVH over primitive boxes ``prim_lo``/``prim_hi`` of shape (N, 4);
+    ``primitive`` picks the SAH intersection cost."""
     start_clock = time.perf_counter()
     n = len(prim_lo)
     if n == 0:
         z = np.zeros((1, 4))
         return FlatBVH(z, z - 1.0, np.zeros(1, np.int32), np.zeros(1, np.int32), np.zeros(0, np.int64), 0, 0.0)
-    first, count, levels, order, depth = _sah_topology(prim_lo, prim_hi)
+    first, count, levels, order, depth = _sah_topology(prim_lo, prim_hi, SAH_COST_INTERSECT[primitive])
     lo, hi = _bounds(prim_lo, prim_hi, first, count, levels, order)
     return FlatBVH(
         node_lo=lo,
@@ -79,13 +80,11 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray) -> FlatBVH:
     )
 
 
-def _sah_topology(prim_lo, prim_hi):
+def _sah_topology(prim_lo, prim_hi, cost_intersect: float):
     """Node ranges by binned SAH, one Warp launch per tree level."""
     import warp as wp
 
-    from .kernels.bvh_build import make_sah_split
-
-    kernel = _sah_kernel(make_sah_split)
+    kernel = _sah_kernel(cost_intersect)
     n = len(prim_lo)
     plo = wp.array(prim_lo.astype(np.float32), dtype=wp.vec4, device="cpu")
     phi = wp.array(prim_hi.astype(np.float32), dtype=wp.vec4, device="cpu")
@@ -117,7 +116,7 @@ def _sah_topology(prim_lo, prim_hi):
     return first[:n_nodes], count[:n_nodes], levels, order_w.numpy().astype(np.int64), depth
 
 
-_SAH_KERNEL = []
+_SAH_KERNELS: dict = {}
 
 
 def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, force_median):
@@ -146,10 +145,13 @@ def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, for
     return mids.numpy().astype(np.int64)
 
 
-def _sah_kernel(make):
-    if not _SAH_KERNEL:
-        _SAH_KERNEL.append(make(LEAF_SIZE, SAH_MAX_LEAF, SAH_COST_TRAVERSE, SAH_COST_INTERSECT))
-    return _SAH_KERNEL[0]
+def _sah_kernel(cost_intersect: float):
+    """The split kernel for one intersection cost, built once per process."""
+    from .kernels.bvh_build import make_sah_split
+
+    if cost_intersect not in _SAH_KERNELS:
+        _SAH_KERNELS[cost_intersect] = make_sah_split(LEAF_SIZE, SAH_MAX_LEAF, SAH_COST_TRAVERSE, cost_intersect)
+    return _SAH_KERNELS[cost_intersect]
 
 
 def _bounds(prim_lo, prim_hi, first, count, levels, order):

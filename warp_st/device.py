@@ -4,7 +4,7 @@ Static arrays (topology, BVH links, materials) are uploaded once per database; t
 float arrays that carry positions are recentred on the render origin (the camera
 event) in float64 on the host and only then rounded to the kernel's precision, so
 absolute times of 1e6 or 1e9 cost no accuracy. Node boxes are rounded outward so a
-rounded box always contains its rounded tetrahedra.
+rounded box always contains its rounded primitives.
 """
 from __future__ import annotations
 
@@ -29,8 +29,15 @@ class StaticArrays:
     def __init__(self, k: Kernels, mesh: SpacetimeMesh, bvh: FlatBVH):
         np_scalar = np.float32 if k.scalar == wp.float32 else np.float64
         self.np_scalar = np_scalar
-        self.tet = wp.array(mesh.tets.astype(np.int32), dtype=wp.vec4i, device=_DEVICE)
-        self.tet_tri = wp.array(mesh.tet_tri.astype(np.int32), dtype=wp.int32, device=_DEVICE)
+        if mesh.primitive == "prism":
+            # The shading reads four vertex indices with barycentrics (b0, b1, b2, 0).
+            vidx, tri = mesh.prisms[:, [0, 1, 2, 0]], mesh.prism_tri
+            speed = np.array([b.velocity for b in mesh.bodies], dtype=np.float64).reshape(-1, 3)
+            self.prism_velocity = speed[mesh.tri_body[tri]] if len(tri) else np.zeros((0, 3))
+        else:
+            vidx, tri = mesh.tets, mesh.tet_tri
+        self.prim_vidx = wp.array(vidx.astype(np.int32), dtype=wp.vec4i, device=_DEVICE)
+        self.prim_tri = wp.array(tri.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.node_first = wp.array(bvh.node_first, dtype=wp.int32, device=_DEVICE)
         self.node_count = wp.array(bvh.node_count, dtype=wp.int32, device=_DEVICE)
         self.vert_normal = wp.array(mesh.vertex_normals.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
@@ -74,9 +81,20 @@ def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: Fl
     ns = static.np_scalar
     vert = (mesh.vertices - origin).astype(ns)
     g.vert = wp.array(vert, dtype=k.vec4, device=_DEVICE)
-    g.tet_vert = wp.array(vert[mesh.tets.reshape(-1)], dtype=k.vec4, device=_DEVICE)
-    g.tet = static.tet
-    g.tet_tri = static.tet_tri
+    if mesh.primitive == "prism":
+        # Per prism: its three bottom events at t0, then (t_hi, velocity); the second
+        # event's time slot (a copy of t0) carries t_lo instead (see extrude.prism_spans).
+        events = np.empty((len(mesh.prisms), 4, 4), dtype=ns)
+        events[:, :3] = vert[mesh.prisms[:, :3]]
+        span = (mesh.prism_span - origin[0]).astype(ns)
+        events[:, 1, 0] = span[:, 0]
+        events[:, 3, 0] = span[:, 1]
+        events[:, 3, 1:] = static.prism_velocity.astype(ns)
+        g.prim_event = wp.array(events.reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
+    else:
+        g.prim_event = wp.array(vert[mesh.tets.reshape(-1)], dtype=k.vec4, device=_DEVICE)
+    g.prim_vidx = static.prim_vidx
+    g.prim_tri = static.prim_tri
     g.tri_body = static.tri_body
     g.node_lo = wp.array(_outward(bvh.node_lo - origin, ns, -np.inf), dtype=k.vec4, device=_DEVICE)
     g.node_hi = wp.array(_outward(bvh.node_hi - origin, ns, np.inf), dtype=k.vec4, device=_DEVICE)

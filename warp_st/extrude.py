@@ -45,6 +45,14 @@ class SpacetimeMesh:
         only meaningful for triangles with ``tri_smooth``.
     tets: vertex indices, ascending in each row, shape (N, 4), int32.
     tet_tri: the triangle each tetrahedron was extruded from, (N,), int32.
+    prisms: the same extrusion as prisms (each the union of three of the tetrahedra):
+        bottom vertex indices ascending, then the matching top ones, shape (P, 6), int32.
+    prism_tri: the triangle of each prism, (P,), int32.
+    prism_span: lab times (t_lo, t_hi) in which each prism's triangle is tested, (P, 2):
+        its segment [t0, t1] widened by PRISM_OVERLAP of its length where it meets the
+        next segment (see ``prism_spans``).
+    primitive: what a BVH built over this mesh indexes, "tet" or "prism"
+        (``renderer.build_database`` reorders that array into leaf order).
     tri_normal: unit lab-frame normal of each contracted triangle, (T, 3).
     tri_smooth: 1 where the triangle interpolates vertex normals, (T,), int32.
     tri_size: longest edge of each contracted triangle, (T,).
@@ -55,6 +63,9 @@ class SpacetimeMesh:
     vertex_normals: np.ndarray
     tets: np.ndarray
     tet_tri: np.ndarray
+    prisms: np.ndarray
+    prism_tri: np.ndarray
+    prism_span: np.ndarray
     tri_normal: np.ndarray
     tri_smooth: np.ndarray
     tri_size: np.ndarray
@@ -62,10 +73,30 @@ class SpacetimeMesh:
     tri_material: np.ndarray
     materials: tuple
     bodies: tuple
+    primitive: str = "tet"
 
     @property
     def tet_count(self) -> int:
         return int(len(self.tets))
+
+    @property
+    def prim_count(self) -> int:
+        """Number of primitives of the kind a BVH over this mesh indexes."""
+        return int(len(self.prisms if self.primitive == "prism" else self.tets))
+
+    def prim_boxes(self) -> tuple[np.ndarray, np.ndarray]:
+        """4D bounding boxes (lo, hi) of every primitive, each (N, 4): a tetrahedron's
+        four events, or a prism's triangle swept over its whole span."""
+        if self.primitive != "prism":
+            ev = self.vertices[self.tets]
+            return ev.min(axis=1), ev.max(axis=1)
+        bottom = self.vertices[self.prisms[:, :3]]  # (P, 3, 4) at t0
+        top = self.vertices[self.prisms[:, 3:]]
+        t0, t1 = bottom[:, :1, :1], top[:, :1, :1]
+        rate = (top - bottom) / np.where(t1 > t0, t1 - t0, 1.0)  # (1, v) per vertex
+        ends = [bottom + rate * (span - t0) for span in (self.prism_span[:, None, 0:1], self.prism_span[:, None, 1:2])]
+        ev = np.concatenate(ends, axis=1)
+        return ev.min(axis=1), ev.max(axis=1)
 
     def tet_events(self) -> np.ndarray:
         """Events of every tetrahedron, shape (N, 4, 4): [tet, corner, (t, x, y, z)]."""
@@ -125,7 +156,7 @@ def extrude_scene(scene: Scene, windows: list[tuple[float, float] | None]) -> Sp
     """
     materials: list = []
     mat_index: dict = {}
-    verts, vnorms, tets, tet_tri = [], [], [], []
+    verts, vnorms, tets, tet_tri, prisms, prism_tri, spans = [], [], [], [], [], [], []
     tri_normal, tri_smooth, tri_size, tri_body, tri_material = [], [], [], [], []
     v_base = 0
     t_base = 0
@@ -171,6 +202,9 @@ def extrude_scene(scene: Scene, windows: list[tuple[float, float] | None]) -> Sp
 
             tets.append(_prism_tets(tris, n_pts, len(slices) - 1) + v_base)
             tet_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), 3 * (len(slices) - 1)) + t_base)
+            prisms.append(_prisms(tris, n_pts, len(slices) - 1) + v_base)
+            prism_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), len(slices) - 1) + t_base)
+            spans.append(np.repeat(prism_spans(slices), n_tri, axis=0))
             v_base += len(slices) * n_pts
             t_base += n_tri
 
@@ -182,6 +216,9 @@ def extrude_scene(scene: Scene, windows: list[tuple[float, float] | None]) -> Sp
         vertex_normals=cat(vnorms, (0, 3), np.float64),
         tets=cat(tets, (0, 4), np.int32),
         tet_tri=cat(tet_tri, (0,), np.int32),
+        prisms=cat(prisms, (0, 6), np.int32),
+        prism_tri=cat(prism_tri, (0,), np.int32),
+        prism_span=cat(spans, (0, 2), np.float64),
         tri_normal=cat(tri_normal, (0, 3), np.float64),
         tri_smooth=cat(tri_smooth, (0,), np.int32),
         tri_size=cat(tri_size, (0,), np.float64),
@@ -220,6 +257,35 @@ def _prism_tets(tris: np.ndarray, n_pts: int, segments: int) -> np.ndarray:
     )  # (3, T, 4)
     offsets = (np.arange(segments, dtype=np.int64) * n_pts)[:, None, None, None]
     return (one[None] + offsets).reshape(-1, 4)
+
+
+#: Consecutive prisms of a triangle overlap by this fraction of their segment's length.
+#: Each prism moves its triangle as x + v (t - t0) from its own (rounded) bottom
+#: events, so at a slice time the two neighbours' triangles differ by the rounding of
+#: the stored positions, and a ray through a vertex or edge exactly there could fall
+#: in the gap; with an overlap every hit time lies well inside one segment, whose
+#: prisms alone are watertight. Only slice times between two segments are widened:
+#: the extrusion's first and last times (lifetime ends, window ends) stay exact.
+PRISM_OVERLAP = 1.0e-2
+
+
+def prism_spans(slices: np.ndarray) -> np.ndarray:
+    """(t_lo, t_hi) of each segment between ``slices``, widened by PRISM_OVERLAP of its
+    length where it meets a neighbouring segment, shape (K, 2)."""
+    t0, t1 = slices[:-1], slices[1:]
+    pad = PRISM_OVERLAP * (t1 - t0)
+    lo, hi = t0.copy(), t1.copy()
+    lo[1:] -= pad[1:]
+    hi[:-1] += pad[:-1]
+    return np.column_stack([lo, hi])
+
+
+def _prisms(tris: np.ndarray, n_pts: int, segments: int) -> np.ndarray:
+    """Every triangle and segment as a prism: sorted bottom indices, then top, (T K, 6)."""
+    s = np.sort(tris, axis=1)
+    one = np.concatenate([s, s + n_pts], axis=1)  # (T, 6)
+    offsets = (np.arange(segments, dtype=np.int64) * n_pts)[:, None, None]
+    return (one[None] + offsets).reshape(-1, 6)
 
 
 # --------------------------------------------------------------------------- adaptive spheres

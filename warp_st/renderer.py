@@ -24,7 +24,10 @@ from .limits import check_resources, resolve_max_memory
 from .scene import CameraState, Scene, SceneError
 from .visibility import hull, visibility_windows
 
-__all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION"]
+__all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION", "PRIMITIVES"]
+
+#: Primitive kinds of the 4D database (see build_database).
+PRIMITIVES = ("prism", "tet")
 
 DEFAULT_RESOLUTION = (640, 360)
 #: Mirror reflections followed when nothing asks otherwise (issue: light transport).
@@ -68,7 +71,8 @@ def _quiet_init(wp) -> None:
 
 @dataclass
 class RenderStats:
-    tetrahedra: int = 0
+    tetrahedra: int = 0  # the database's size in tetrahedra (3 per prism), either primitive
+    primitives: int = 0  # what the BVH indexes: prisms or tetrahedra
     bvh_nodes: int = 0
     bvh_depth: int = 0
     extrude_seconds: float = 0.0
@@ -111,6 +115,8 @@ class Renderer:
     frames: the USD time codes that will be rendered (the database covers exactly
         what their past lightcones can reach); default: the stage's start frame or 0.
     Keyword options override the stage's render settings; None keeps them.
+    primitive: "prism" (default, one comoving triangle test per prism) or "tet" (three
+        tetrahedra per prism, the general path); both give the same images.
     """
 
     def __init__(
@@ -130,8 +136,12 @@ class Renderer:
         light_speed: str | None = None,
         threads: int | None = None,
         max_memory: int | str | None = None,
+        primitive: str = "prism",
     ):
         src = scene.source
+        if primitive not in PRIMITIVES:
+            raise SceneError.at(src, None, "primitive", f"must be one of {', '.join(PRIMITIVES)}, got {primitive!r}")
+        self.primitive = primitive
         self.scene = scene
         self.max_memory = resolve_max_memory(max_memory, src)  # bytes; None = no limit known
         try:
@@ -217,17 +227,18 @@ class Renderer:
         self.memory_estimate = check_resources(scene, windows, width=self.width, height=self.height,
                                                samples=self.samples, max_depth=self.max_depth,
                                                max_memory=self.max_memory)
-        mesh, bvh = build_database(scene, windows)
+        mesh, bvh = build_database(scene, windows, self.primitive)
         t2 = time.perf_counter()
         t1 = t2 - bvh.build_seconds
         tc = time.perf_counter()
-        self.kernels = get_kernels(self.precision.value)
+        self.kernels = get_kernels(self.precision.value, self.primitive)
         wp.load_module(self.kernels.render_pixels.module, device="cpu")
         self.stats.compile_seconds = time.perf_counter() - tc
         t3 = time.perf_counter()
         self.static = StaticArrays(self.kernels, mesh, bvh)
         self.mesh, self.bvh = mesh, bvh
         self.stats.tetrahedra = mesh.tet_count
+        self.stats.primitives = mesh.prim_count
         self.stats.bvh_nodes = bvh.node_count_total
         self.stats.bvh_depth = bvh.depth
         self.stats.extrude_seconds = t1 - t0
@@ -238,6 +249,7 @@ class Renderer:
         s = self.stats
         return {
             "tetrahedra": s.tetrahedra,
+            "primitive": self.primitive,
             "bvh_nodes": s.bvh_nodes,
             "extrude_seconds": round(s.extrude_seconds, 4),
             "bvh_seconds": round(s.bvh_seconds, 4),
@@ -361,26 +373,35 @@ def _advanced(cam: CameraState, dt: float) -> CameraState:
     return dataclasses.replace(cam, time=cam.time + dt, position=np.asarray(cam.position) + np.asarray(cam.velocity) * dt)
 
 
-def build_database(scene: Scene, windows: list) -> tuple[SpacetimeMesh, FlatBVH]:
+def build_database(scene: Scene, windows: list, primitive: str = "prism") -> tuple[SpacetimeMesh, FlatBVH]:
     """Extrude ``scene`` over per-body time ``windows`` and build the 4D BVH.
 
-    The returned mesh stores its tetrahedra in BVH leaf order (a leaf is a
-    contiguous range), so tetrahedron indices refer to that order.
+    ``primitive``: what the BVH's leaves hold and the kernels intersect: "prism" (one
+    comoving triangle test per extruded triangle and segment; every body moves
+    uniformly, so this is exact) or "tet" (three tetrahedra per prism, the general
+    path). The returned mesh stores that primitive array in BVH leaf order (a leaf is
+    a contiguous range), so primitive indices refer to that order.
     """
     import dataclasses
 
     from .bvh import build_bvh
 
-    mesh = extrude_scene(scene, windows)
-    events = mesh.vertices[mesh.tets] if mesh.tet_count else np.zeros((0, 4, 4))
-    bvh = build_bvh(events.min(axis=1), events.max(axis=1))
-    if mesh.tet_count == 0:
+    if primitive not in PRIMITIVES:
+        raise ValueError(f"primitive must be one of {PRIMITIVES}, got {primitive!r}")
+    mesh = dataclasses.replace(extrude_scene(scene, windows), primitive=primitive)
+    lo, hi = mesh.prim_boxes() if mesh.prim_count else (np.zeros((0, 4)), np.zeros((0, 4)))
+    bvh = build_bvh(lo, hi, primitive=primitive)
+    if mesh.prim_count == 0:
         # No geometry: the empty build's root (an inverted box, count 0 = "inner node")
         # would send a ray through it into node 1, out of bounds, forever. A root box at
         # t = +inf is never entered by a null ray on a past (or infinite-c) lightcone.
         far = np.array([[np.inf, 0.0, 0.0, 0.0]])
         bvh = dataclasses.replace(bvh, node_lo=far, node_hi=far.copy())
-    mesh = dataclasses.replace(mesh, tets=mesh.tets[bvh.order], tet_tri=mesh.tet_tri[bvh.order])
+    if primitive == "prism":
+        mesh = dataclasses.replace(mesh, prisms=mesh.prisms[bvh.order], prism_tri=mesh.prism_tri[bvh.order],
+                                   prism_span=mesh.prism_span[bvh.order])
+    else:
+        mesh = dataclasses.replace(mesh, tets=mesh.tets[bvh.order], tet_tri=mesh.tet_tri[bvh.order])
     return mesh, bvh
 
 

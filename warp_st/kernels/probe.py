@@ -4,7 +4,7 @@ import warp as wp
 __all__ = ["make_probe"]
 
 
-def make_probe(scalar, vec3, vec4, Geometry, trace, hit_tet, ray_basis, to_d):
+def make_probe(scalar, vec3, vec4, Geometry, trace, hit_prim, ray_basis, to_d):
     FAR = 1.0e30
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -13,24 +13,24 @@ def make_probe(scalar, vec3, vec4, Geometry, trace, hit_tet, ray_basis, to_d):
         origins: wp.array(dtype=vec4),
         dirs: wp.array(dtype=vec3),
         finite: int,
-        out_tet: wp.array(dtype=wp.int32),
+        out_prim: wp.array(dtype=wp.int32),
         out_s: wp.array(dtype=scalar),
         out_visits: wp.array(dtype=wp.int32),
     ):
         i = wp.tid()
-        tet, s, _lam, visits, _ovf = trace(geo, origins[i], dirs[i], finite, scalar(0.0), scalar(FAR), -1, -1, scalar(0.0), 0)
-        out_tet[i] = tet
+        prim, s, _lam, visits, _ovf = trace(geo, origins[i], dirs[i], finite, scalar(0.0), scalar(FAR), -1, -1, scalar(0.0), 0)
+        out_prim[i] = prim
         out_s[i] = s
         out_visits[i] = visits
 
     @wp.kernel(enable_backward=False, module="unique")
     def brute_rays(
         geo: Geometry,
-        tet_count: int,
+        prim_count: int,
         origins: wp.array(dtype=vec4),
         dirs: wp.array(dtype=vec3),
         finite: int,
-        out_tet: wp.array(dtype=wp.int32),
+        out_prim: wp.array(dtype=wp.int32),
         out_s: wp.array(dtype=scalar),
     ):
         i = wp.tid()
@@ -41,13 +41,13 @@ def make_probe(scalar, vec3, vec4, Geometry, trace, hit_tet, ray_basis, to_d):
         ud = to_d(u)
         wd = to_d(w)
         best = scalar(FAR)
-        best_tet = int(-1)
-        for ti in range(tet_count):
-            h, s, _lam = hit_tet(geo, ti, o, nd, ud, wd, finite, scalar(0.0), best)
+        best_prim = int(-1)
+        for ti in range(prim_count):
+            h, s, _lam = hit_prim(geo, ti, o, nd, ud, wd, finite, scalar(0.0), best)
             if h:
                 best = s
-                best_tet = ti
-        out_tet[i] = best_tet
+                best_prim = ti
+        out_prim[i] = best_prim
         out_s[i] = best
 
     return cast_rays, brute_rays

@@ -17,17 +17,18 @@ __all__ = ["get_kernels", "Kernels"]
 
 
 class Kernels:
-    """The compiled device types and kernels for one scalar type."""
+    """The compiled device types and kernels for one scalar type and primitive kind."""
 
-    def __init__(self, scalar):
+    def __init__(self, scalar, primitive: str = "prism"):
         self.scalar = scalar
+        self.primitive = primitive
         self.vec3 = wp.types.vector(3, scalar)
         self.vec4 = wp.types.vector(4, scalar)
         self.mat33 = wp.types.matrix((3, 3), scalar)
-        Geometry, trace, hit_tet, basis, to_d = make_trace(scalar)
+        Geometry, trace, hit_prim, basis, to_d = make_trace(scalar, primitive)
         self.Geometry = Geometry
         self.Shading, self.Camera, self.Film, self.render_pixels = _make_render(scalar, self, trace, Geometry)
-        self._probe_parts = (scalar, self.vec3, self.vec4, Geometry, trace, hit_tet, basis, to_d)
+        self._probe_parts = (scalar, self.vec3, self.vec4, Geometry, trace, hit_prim, basis, to_d)
         self._probe = None
 
     @property
@@ -37,7 +38,7 @@ class Kernels:
 
     @property
     def brute_rays(self):
-        """Kernel: closest hit of arbitrary null rays over every tetrahedron (the oracle)."""
+        """Kernel: closest hit of arbitrary null rays over every primitive, no BVH (the oracle)."""
         return self._probes()[1]
 
     def _probes(self):
@@ -147,7 +148,7 @@ def _make_render(scalar, k, trace, Geometry):
 
         A surface shows (1 - metallic) x its own shading + metallic x diffuseColor x the
         radiance arriving along the reflected null ray (SPEC §2; issue: light transport),
-        for at most ``max_depth`` reflections. Returns (colour, alpha, first tet, its
+        for at most ``max_depth`` reflections. Returns (colour, alpha, first prim, its
         lookback s, barycentrics, source event time, bounces before it, visits,
         overflow). The source is the last hit that is not a perfect mirror, or the
         hit where the path ends; NaN when only mirrors led to the background.
@@ -168,7 +169,7 @@ def _make_render(scalar, k, trace, Geometry):
         n = n0
         skip = int(-1)
         path = scalar(0.0)
-        first_tet = int(-1)
+        first_prim = int(-1)
         first_s = scalar(0.0)
         first_lam = vec4(scalar(0.0))
         source_t = scalar(wp.nan)
@@ -178,10 +179,10 @@ def _make_render(scalar, k, trace, Geometry):
         overflow = int(0)
         depth = int(0)
         while depth <= shd.max_depth:
-            tet, s, lam, vis, ovf = trace(geo, o, n, finite, self_eps(path), scalar(FAR), skip, -1, scalar(0.0), 0)
+            prim, s, lam, vis, ovf = trace(geo, o, n, finite, self_eps(path), scalar(FAR), skip, -1, scalar(0.0), 0)
             visits += vis
             overflow = wp.max(overflow, ovf)
-            if tet < 0:
+            if prim < 0:
                 if depth > 0:
                     bg = doppler_transform(shd.background, cam_term / energy, shd.basis_inv, shd.color_shift, shd.searchlight)
                     color = color + wp.cw_mul(weight, bg)
@@ -189,16 +190,16 @@ def _make_render(scalar, k, trace, Geometry):
             event = o + s * null_dir(n, finite)
             path = path + s
             if depth == 0:
-                first_tet = tet
+                first_prim = prim
                 first_s = s
                 first_lam = lam
-            tri = geo.tet_tri[tet]
+            tri = geo.prim_tri[prim]
             mat = shd.tri_material[tri]
             metal = shd.mat_metallic[mat]
-            normal = shading_normal(geo, shd, tet, lam, n)
+            normal = shading_normal(geo, shd, prim, lam, n)
             body = shd.tri_body[tri]
             if metal < scalar(1.0):
-                local = shade(geo, shd, finite, tet, path, event, normal)
+                local = shade(geo, shd, finite, prim, path, event, normal)
                 ub = four_velocity(shd.body_velocity[body], shd.body_gamma[body], shd.body_decoupled[body])
                 body_term = ub[0]
                 if finite != 0:
@@ -234,9 +235,9 @@ def _make_render(scalar, k, trace, Geometry):
             bounces += 1
             depth += 1
         alpha = scalar(0.0)
-        if first_tet >= 0:
+        if first_prim >= 0:
             alpha = scalar(1.0)
-        return color, alpha, first_tet, first_s, first_lam, source_t, source_bounces, visits, overflow
+        return color, alpha, first_prim, first_s, first_lam, source_t, source_bounces, visits, overflow
 
     @wp.func
     def sample_ray(cam: Camera, px: int, py: int, k: int, pixel: int):
@@ -264,7 +265,7 @@ def _make_render(scalar, k, trace, Geometry):
         # there is one sample).
         n = camera_direction(cam, scalar(px) + scalar(0.5), scalar(py) + scalar(0.5))
         origin = vec4(scalar(0.0))
-        color, alpha, tet, s, lam, src_t, src_b, visits, overflow = trace_path(geo, shd, cam, origin, n)
+        color, alpha, prim, s, lam, src_t, src_b, visits, overflow = trace_path(geo, shd, cam, origin, n)
         if cam.samples > 1:
             color = vec3(scalar(0.0))
             alpha = scalar(0.0)
@@ -281,7 +282,7 @@ def _make_render(scalar, k, trace, Geometry):
         film.visits[pixel] = visits
         if overflow != 0:
             film.overflow[0] = 1
-        if tet < 0:
+        if prim < 0:
             bg = shd.background
             film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
             film.depth[pixel] = scalar(wp.inf)
@@ -303,7 +304,7 @@ def _make_render(scalar, k, trace, Geometry):
         film.source_time[pixel] = src_t
         film.bounces[pixel] = src_b
 
-        body = shd.tri_body[geo.tet_tri[tet]]
+        body = shd.tri_body[geo.prim_tri[prim]]
         bo = shd.body_origin[body]
         v = shd.body_velocity[body]
         dec = shd.body_decoupled[body]
@@ -330,7 +331,9 @@ def _make_render(scalar, k, trace, Geometry):
 
 
 @functools.lru_cache(maxsize=None)
-def get_kernels(precision: str) -> Kernels:
-    """Kernels for ``"float32"`` or ``"float64"``, built once per process."""
+def get_kernels(precision: str, primitive: str = "prism") -> Kernels:
+    """Kernels for ``"float32"``/``"float64"`` and ``"prism"``/``"tet"``, built once per process."""
     scalar = {"float32": wp.float32, "float64": wp.float64}[precision]
-    return Kernels(scalar)
+    if primitive not in ("prism", "tet"):
+        raise ValueError(f"primitive must be prism or tet, got {primitive!r}")
+    return Kernels(scalar, primitive)

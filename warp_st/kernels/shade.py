@@ -46,17 +46,17 @@ def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
         return scalar(SELF_EPS) * (scalar(1.0) + wp.abs(path))
 
     @wp.func
-    def shading_normal(geo: Geometry, shd: Shading, tet: int, lam: vec4, n: vec3) -> vec3:
+    def shading_normal(geo: Geometry, shd: Shading, prim: int, lam: vec4, n: vec3) -> vec3:
         """Unit normal at the hit, on the side the light to the camera leaves from.
 
         Smooth triangles interpolate vertex normals with the hit's barycentrics.
         Relative to a surface moving with v the photon (spatial direction -n) moves as
         -(n + v), which picks the side of a two-sided surface.
         """
-        tri = geo.tet_tri[tet]
+        tri = geo.prim_tri[prim]
         normal = shd.tri_normal[tri]
         if shd.tri_smooth[tri] != 0:
-            idx = geo.tet[tet]
+            idx = geo.prim_vidx[prim]
             sm = (
                 lam[0] * shd.vert_normal[idx[0]]
                 + lam[1] * shd.vert_normal[idx[1]]
@@ -71,12 +71,12 @@ def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
         return normal
 
     @wp.func
-    def shade(geo: Geometry, shd: Shading, finite: int, tet: int, path: scalar, event: vec4, normal: vec3):
+    def shade(geo: Geometry, shd: Shading, finite: int, prim: int, path: scalar, event: vec4, normal: vec3):
         """Emission plus Lambert from lights at rest, each behind a null-ray shadow test.
 
         Without lights the surface shows its unlit albedo (SPEC §3).
         """
-        tri = geo.tet_tri[tet]
+        tri = geo.prim_tri[prim]
         mat = shd.tri_material[tri]
         body = shd.tri_body[tri]
         diffuse = shd.mat_diffuse[mat]

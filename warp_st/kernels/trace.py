@@ -1,4 +1,4 @@
-"""Ray casting against the 4D tetrahedral database (pure Warp device code).
+"""Ray casting against the 4D database of prisms or tetrahedra (pure Warp device code).
 
 A ray is the null line E(s) = O + s d with d = (-1, n) for finite light speed or
 (0, n) for infinite light speed (SPEC §1), s >= 0 the lookback. Everything is in
@@ -17,6 +17,19 @@ products of its faces. Faces are evaluated in ascending global vertex order (the
 extrusion stores every tetrahedron's indices sorted), so the two tetrahedra sharing
 a face compute its triple product bit-identically and a ray can never slip between
 them: the watertight construction of pbrt's triangle test, one dimension up.
+
+Ray/prism intersection (the fast path): a prism is a triangle moving rigidly with the
+body's velocity v over [t0, t1], x_i(t) = x_i + v (t - t0). The ray meets it where
+o_x + s n = sum b_i x_i + v (o_t - s - t0), i.e. the static triangle x_i is met by the
+3D ray O' + s D with O' = o_x - v (o_t - t0) and D = n + v (D = n with infinite light
+speed, where t = o_t), subject to t_lo <= o_t - s <= t_hi: one 3D triangle test instead
+of three 4D ones. A prism is exactly the union of its three tetrahedra (the side quads
+are parallelograms), so both paths give the same hits (tests/test_prisms.py); [t_lo,
+t_hi] is the segment [t0, t1] overlapping its neighbours slightly (extrude.PRISM_OVERLAP:
+the same moving triangle, continued), which keeps slice times watertight.
+The test projects along D (pbrt's permute-and-shear) and evaluates each edge function
+over the sorted global vertex indices with a rounding tolerance that depends on the
+edge only, so neighbouring prisms agree on every shared edge (watertight).
 """
 
 import warp as wp
@@ -28,7 +41,7 @@ __all__ = ["make_trace", "STACK_SIZE"]
 STACK_SIZE = 64
 
 
-def make_trace(scalar):
+def make_trace(scalar, primitive: str = "prism"):
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
     stack_i = wp.types.vector(STACK_SIZE, wp.int32)
@@ -46,9 +59,12 @@ def make_trace(scalar):
     @wp.struct
     class Geometry:
         vert: wp.array(dtype=vec4)
-        tet_vert: wp.array(dtype=vec4)  # the 4 events of tet i at 4i..4i+3: copies of vert
-        tet: wp.array(dtype=wp.vec4i)
-        tet_tri: wp.array(dtype=wp.int32)
+        # Primitive i's data at 4i..4i+3: a tetrahedron's 4 events, or a prism's 3 bottom
+        # events and (t_hi, v) with t_lo in the second event's time slot. Positions are
+        # bit-identical copies of the shared vertices.
+        prim_event: wp.array(dtype=vec4)
+        prim_vidx: wp.array(dtype=wp.vec4i)  # vertex indices for shading (prism: a, b, c, a)
+        prim_tri: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
         node_lo: wp.array(dtype=vec4)
         node_hi: wp.array(dtype=vec4)
@@ -100,10 +116,10 @@ def make_trace(scalar):
         # The events are stored inline per tetrahedron (one cache line, no gather); they
         # are bit-identical copies of the shared vertices, which watertightness needs.
         base = 4 * ti
-        q0, s0 = project(g.tet_vert[base], o, nd, ud, wd, finite)
-        q1, s1 = project(g.tet_vert[base + 1], o, nd, ud, wd, finite)
-        q2, s2 = project(g.tet_vert[base + 2], o, nd, ud, wd, finite)
-        q3, s3 = project(g.tet_vert[base + 3], o, nd, ud, wd, finite)
+        q0, s0 = project(g.prim_event[base], o, nd, ud, wd, finite)
+        q1, s1 = project(g.prim_event[base + 1], o, nd, ud, wd, finite)
+        q2, s2 = project(g.prim_event[base + 2], o, nd, ud, wd, finite)
+        q3, s3 = project(g.prim_event[base + 3], o, nd, ud, wd, finite)
         # D_i = signed volume with vertex i replaced by the ray point (the origin):
         # cofactor signs of the 4x4 [q 1] determinant. Every face is evaluated as
         # q_a . (q_b x q_c) with a < b < c (the indices are sorted), so a face shared by
@@ -155,6 +171,84 @@ def make_trace(scalar):
         return hit, s, lam
 
     @wp.func
+    def cross2(a: wp.vec2d, b: wp.vec2d) -> wp.float64:
+        return a[0] * b[1] - a[1] * b[0]
+
+    @wp.func
+    def edge_eps(a: wp.vec2d, b: wp.vec2d) -> wp.float64:
+        # Rounding bound of cross2(a, b) (3 eps (|a0 b1| + |a1 b0|), taken as 8 eps):
+        # a function of the edge only, like FACE_EPS for tetrahedron faces.
+        return wp.float64(FACE_EPS) * (wp.abs(a[0] * b[1]) + wp.abs(a[1] * b[0]))
+
+    @wp.func
+    def hit_prism(g: Geometry, pi: int, o: vec4, nd: dvec3, ud: dvec3, wd: dvec3, finite: int, s_min: scalar, s_max: scalar):
+        """(hit, s, barycentrics (b0, b1, b2, 0)) of the ray with prism pi, s in (s_min, s_max)."""
+        base = 4 * pi
+        e0 = g.prim_event[base]
+        e1 = g.prim_event[base + 1]
+        e2 = g.prim_event[base + 2]
+        top = g.prim_event[base + 3]
+        t0 = wp.float64(e0[0])
+        t_lo = wp.float64(e1[0])  # the segment [t0, t1], widened where it meets the next
+        t_hi = wp.float64(top[0])
+        v = dvec3(wp.float64(top[1]), wp.float64(top[2]), wp.float64(top[3]))
+        ot = wp.float64(o[0])
+        dt = ot - t0
+        org = dvec3(wp.float64(o[1]), wp.float64(o[2]), wp.float64(o[3])) - v * dt
+        d = nd
+        if finite != 0:
+            d = nd + v
+        elif ot < t_lo or ot > t_hi:
+            return False, scalar(0.0), vec4(scalar(0.0))
+        # Permute so D's largest component is z, then shear it onto the z axis.
+        ax = wp.abs(d[0])
+        ay = wp.abs(d[1])
+        az = wp.abs(d[2])
+        kz = int(2)
+        if ax > ay and ax > az:
+            kz = 0
+        elif ay > az:
+            kz = 1
+        if d[kz] == wp.float64(0.0):
+            return False, scalar(0.0), vec4(scalar(0.0))
+        kx = (kz + 1) % 3
+        ky = (kz + 2) % 3
+        inv_z = wp.float64(1.0) / d[kz]
+        sx = -d[kx] * inv_z
+        sy = -d[ky] * inv_z
+        r0 = dvec3(wp.float64(e0[1]), wp.float64(e0[2]), wp.float64(e0[3])) - org
+        r1 = dvec3(wp.float64(e1[1]), wp.float64(e1[2]), wp.float64(e1[3])) - org
+        r2 = dvec3(wp.float64(e2[1]), wp.float64(e2[2]), wp.float64(e2[3])) - org
+        p0 = wp.vec2d(r0[kx] + sx * r0[kz], r0[ky] + sy * r0[kz])
+        p1 = wp.vec2d(r1[kx] + sx * r1[kz], r1[ky] + sy * r1[kz])
+        p2 = wp.vec2d(r2[kx] + sx * r2[kz], r2[ky] + sy * r2[kz])
+        # Edge functions over ascending vertex indices (a < b): shared edges give
+        # bit-identical values in both prisms. b_i is the edge opposite vertex i.
+        b0 = cross2(p1, p2)
+        b1 = -cross2(p0, p2)
+        b2 = cross2(p0, p1)
+        f0 = edge_eps(p1, p2)
+        f1 = edge_eps(p0, p2)
+        f2 = edge_eps(p0, p1)
+        det = b0 + b1 + b2
+        if det < wp.float64(0.0):
+            det = -det
+            b0 = -b0
+            b1 = -b1
+            b2 = -b2
+        # A triangle seen edge-on along D (det within rounding) is left to its neighbours.
+        if det <= f0 + f1 + f2 or b0 < -f0 or b1 < -f1 or b2 < -f2:
+            return False, scalar(0.0), vec4(scalar(0.0))
+        inv = wp.float64(1.0) / det
+        sd = (b0 * r0[kz] + b1 * r1[kz] + b2 * r2[kz]) * inv * inv_z
+        if finite != 0:
+            th = ot - sd
+            if th < t_lo or th > t_hi:
+                return False, scalar(0.0), vec4(scalar(0.0))
+        s = scalar(sd)
+        return s > s_min and s < s_max, s, vec4(scalar(b0 * inv), scalar(b1 * inv), scalar(b2 * inv), scalar(0.0))
+
+    @wp.func
     def box_entry(g: Geometry, node: int, o: vec4, inv: vec4, s_min: scalar, s_max: scalar):
         """Slab test of the 4D box (the t slab is t = t_c - s): (hit, entry s)."""
         lo = g.node_lo[node]
@@ -176,6 +270,8 @@ def make_trace(scalar):
             return scalar(BIG)
         return scalar(1.0) / x
 
+    hit = hit_prism if primitive == "prism" else hit_tet
+
     @wp.func
     def trace(
         g: Geometry,
@@ -194,7 +290,7 @@ def make_trace(scalar):
         Hits on triangle ``skip_tri``, and on body ``skip_body`` nearer than
         ``skip_dist``, are ignored (secondary rays leaving a tessellated surface).
 
-        Returns (tet index or -1, s, barycentrics, nodes visited, stack overflowed).
+        Returns (primitive index or -1, s, barycentrics, nodes visited, stack overflowed).
         Near child first with a fixed stack; an overflow is reported, never silent.
         """
         u, w = ray_basis(n)
@@ -227,9 +323,9 @@ def make_trace(scalar):
                     ti = first + k
                     tri = int(-2)
                     if skip_tri >= 0 or skip_body >= 0:
-                        tri = g.tet_tri[ti]
+                        tri = g.prim_tri[ti]
                     if tri != skip_tri:
-                        h, s, lam = hit_tet(g, ti, o, nd, ud, wd, finite, s_min, best)
+                        h, s, lam = hit(g, ti, o, nd, ud, wd, finite, s_min, best)
                         if h and skip_body >= 0 and s < skip_dist:
                             # (Warp may evaluate both sides of `or`: no index with tri = -2.)
                             if g.tri_body[tri] == skip_body:
@@ -270,4 +366,4 @@ def make_trace(scalar):
             node = next_node
         return best_tet, best, best_lam, visits, overflow
 
-    return Geometry, trace, hit_tet, ray_basis, to_d
+    return Geometry, trace, hit, ray_basis, to_d
