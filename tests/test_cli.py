@@ -258,7 +258,7 @@ def fake(monkeypatch, tmp_path):
         if "bad" in Path(path).name:
             raise SceneError(f"{path}: /World/Ship: spacetime:fourVelocity: speed 1.5 >= 1")
         return types.SimpleNamespace(source=str(path), frame_range=frame_range["value"],
-                                     bodies=(), cameras=("/World/Cam",), lights=())
+                                     bodies=(), cameras=("/World/Cam",), lights=(), products=())
 
     monkeypatch.setattr(warp_st, "load", fake_load)
     monkeypatch.chdir(tmp_path)
@@ -494,7 +494,7 @@ def test_validate_good_scene(tmp_path, capsys):
     path.write_text(TINY_SCENE)
     code, out, err = run(capsys, "validate", str(path))
     assert code == 0, err
-    assert out.strip() == "ok: 1 bodies, 1 cameras, 1 lights"
+    assert out.strip() == f"{path}: ok: 0 errors, 0 warnings; 1 bodies, 1 cameras, 1 lights"
 
 
 def test_validate_missing_file(tmp_path, capsys):

@@ -168,10 +168,13 @@ def test_channel_subset(tmp_path):
     assert exr.read_exr(tmp_path / "subset2.exr").channels == back.channels
 
 
-def test_subset_must_hold_rgba_and_known_names():
-    """R, G, B, A are required (a file without them is not a warp_st image)."""
-    with pytest.raises(ValueError, match="A"):
-        random_image(channels=("R", "G", "B", "Z"))
+def test_subset_needs_known_names_only(tmp_path):
+    """Any subset of SPEC names is an image (RenderVar files need not hold R, G, B, A);
+    an unknown name is a KeyError naming it."""
+    img = random_image(channels=("R", "G", "B", "Z"))
+    img.write_exr(tmp_path / "rgbz.exr")
+    with OpenEXR.File(str(tmp_path / "rgbz.exr"), separate_channels=True) as f:
+        assert set(f.channels()) == {"R", "G", "B", "Z"}
     with pytest.raises(KeyError, match="spacetime.nope"):
         random_image(channels=("R", "G", "B", "A", "spacetime.nope"))
 
@@ -345,17 +348,22 @@ def test_corrupt_files_raise_scene_error(tmp_path, capfd):
 
 
 def test_missing_file_and_missing_channels(tmp_path):
-    """No file, or an EXR without R, G, B, A, is a SceneError naming the file."""
+    """No file is a SceneError naming the file; an EXR without R, G, B, A reads with
+    them at their fill value 0, and is complete unless the caller asks for them."""
     with pytest.raises(SceneError, match="absent.exr"):
         exr.read_exr(tmp_path / "absent.exr")
     assert not exr.is_complete_exr(tmp_path / "absent.exr")
 
     path = tmp_path / "depth_only.exr"
     header = {"type": OpenEXR.scanlineimage, "compression": OpenEXR.ZIP_COMPRESSION}
-    OpenEXR.File(header, {"Z": np.zeros((4, 4), np.float32)}).write(str(path))
-    with pytest.raises(SceneError, match=r"depth_only.exr: missing channel\(s\) R, G, B, A"):
-        exr.read_exr(path)
-    assert not exr.is_complete_exr(path)
+    depth = np.arange(16, dtype=np.float32).reshape(4, 4)
+    OpenEXR.File(header, {"Z": depth}).write(str(path))
+    back = exr.read_exr(path)
+    assert back.channels == ("Z",) and back.channel_names == ("Z",)
+    assert_bitwise(back.depth, depth, "Z")
+    assert not back.rgba.any()
+    assert exr.is_complete_exr(path) and exr.is_complete_exr(path, ("Z",))
+    assert not exr.is_complete_exr(path, REQUIRED_CHANNELS)
 
     path = tmp_path / "float_ids.exr"
     planes = {n: np.zeros((4, 4), np.float32) for n in ("R", "G", "B", "A", "objectId")}
@@ -381,7 +389,8 @@ def test_is_complete_exr(tmp_path):
     """--resume trusts exactly the files that decode completely."""
     path = tmp_path / "ok.exr"
     random_image().write_exr(path)
-    assert exr.is_complete_exr(path)
+    assert exr.is_complete_exr(path) and exr.is_complete_exr(path, CHANNEL_NAMES)
+    assert not exr.is_complete_exr(path, ("R", "beauty.R"))
     data = path.read_bytes()
     path.write_bytes(data[:-16])
     assert not exr.is_complete_exr(path)

@@ -141,7 +141,7 @@ def test_estimate_bounds_the_measured_peak(tmp_path):
     Renderer(scene, frames=[0.0], width=8, height=6)  # kernels compiled outside the measurement
     tracemalloc.start()
     try:
-        r = Renderer(scene, frames=[0.0, 20.0], width=8, height=6)
+        r = Renderer(scene, frames=[float(f) for f in range(0, 21, 2)], width=8, height=6)
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()

@@ -25,6 +25,8 @@ __all__ = [
     "render",
     "read_exr",
     "Image",
+    "render_sequence",
+    "sweep",
 ]
 
 
@@ -54,4 +56,8 @@ def __getattr__(name):
         from .film import Image
 
         return Image
+    if name in ("render_sequence", "sweep"):
+        from . import sequence
+
+        return getattr(sequence, name)
     raise AttributeError(name)

@@ -930,20 +930,22 @@ def sweep_factor(factor: float):
 
 
 def _box_stats(mesh, sample: int = 200_000) -> dict:
-    """Mean spatial extent (largest xyz side) and time extent of the tetrahedra's 4D boxes,
-    relative to their triangle's size (1 = a box as small as the triangle)."""
-    n = mesh.tet_count
+    """Mean spatial extent (largest xyz side) and time extent of the primitives' 4D boxes
+    (prisms or tetrahedra, as the BVH holds them), relative to their triangle's size
+    (1 = a box as small as the triangle)."""
+    n = mesh.prim_count
     if n == 0:
         return {"box_over_size": float("nan"), "box_dt": float("nan")}
     idx = np.random.default_rng(0).choice(n, size=min(n, sample), replace=False)
-    ev = mesh.vertices[mesh.tets[idx]]
-    ext = ev.max(axis=1) - ev.min(axis=1)
-    size = np.maximum(mesh.tri_size[mesh.tet_tri[idx]], 1e-12)
+    lo, hi = mesh.prim_boxes()
+    ext = hi[idx] - lo[idx]
+    prim_tri = mesh.prism_tri if mesh.primitive == "prism" else mesh.tet_tri
+    size = np.maximum(mesh.tri_size[prim_tri[idx]], 1e-12)
     return {"box_over_size": float((ext[:, 1:].max(axis=1) / size).mean()), "box_dt": float(ext[:, 0].mean())}
 
 
 def _tets_per_body(r) -> dict:
-    tri_body = r.mesh.tri_body[r.mesh.tet_tri]
+    tri_body = r.mesh.tri_body[r.mesh.tet_tri]  # every mesh keeps its tetrahedra
     counts = np.bincount(tri_body, minlength=len(r.scene.bodies))
     return {b.prim_path: int(c) for b, c in zip(r.scene.bodies, counts)}
 

@@ -3,7 +3,10 @@
 File layout: one scanline part, ZIP compression (lossless for FLOAT and UINT),
 channels from the registry :data:`warp_st.film.CHANNELS` (FLOAT stored float32,
 ``objectId`` and ``spacetime.bounces`` UINT). ``spacetime.eventTime`` and
-``spacetime.sourceTime`` hold float32 (t - spacetime:timeOrigin).
+``spacetime.sourceTime`` hold float32 (t - spacetime:timeOrigin). A list of
+:class:`~warp_st.film.OutputChannel` (a UsdRender product's RenderVars) writes
+exactly those channels instead, renamed, FLOAT ones optionally as HALF; the
+header is the same.
 
 Header attributes:
 
@@ -13,7 +16,8 @@ Header attributes:
 - ``spacetime:precision`` and ``spacetime:version``: strings.
 - ``spacetime:<key>``: every ``Image.metadata`` item, as a string.
 - ``idManifest``: the standard OpenEXR ID manifest (``Imf::IDManifest``), one
-  channel group on channel ``objectId``, component ``primPath``, ids not hashed,
+  channel group on the channel(s) holding ``objectId`` (whatever their name; no
+  manifest when none is written), component ``primPath``, ids not hashed,
   lifetime "shot" (ids are stage traversal order: stable over the frames of one
   stage). Compositors that read ID manifests find the prim path of each id there.
 
@@ -34,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import OpenEXR
 
-from .film import CHANNEL_NAMES, REQUIRED_CHANNELS, Image, channel_spec
+from .film import CHANNEL_NAMES, Image, OutputChannel, channel_spec
 from .scene import SceneError
 
 __all__ = ["write_exr", "read_exr", "read_header", "is_complete_exr", "atomic_output", "check_output_path"]
@@ -116,9 +120,9 @@ def atomic_output(path):
 # --- writing -------------------------------------------------------------------
 
 
-def _id_manifest(id_manifest: dict[int, str]):
+def _id_manifest(id_manifest: dict[int, str], channels: set[str]):
     manifest = OpenEXR.IDManifest()
-    group = manifest.add(MANIFEST_CHANNEL)
+    group = manifest.add(channels)
     group.setComponent(MANIFEST_COMPONENT)
     group.setHashScheme(OpenEXR.ID_MANIFEST_NOTHASHED)
     group.setEncodingScheme(OpenEXR.ID_MANIFEST_ID_SCHEME)
@@ -128,7 +132,7 @@ def _id_manifest(id_manifest: dict[int, str]):
     return manifest
 
 
-def _header(image: Image) -> dict:
+def _header(image: Image, id_channels: set[str]) -> dict:
     from . import __version__
 
     header = {
@@ -146,8 +150,8 @@ def _header(image: Image) -> dict:
             raise ValueError(f"Image.metadata key {key!r} is empty or reserved")
         header[ATTR_PREFIX + key] = str(value)
     header[ATTR_VERSION] = str(__version__)
-    if image.id_manifest:
-        header[ATTR_ID_MANIFEST] = _id_manifest(image.id_manifest)
+    if image.id_manifest and id_channels:
+        header[ATTR_ID_MANIFEST] = _id_manifest(image.id_manifest, id_channels)
     return header
 
 
@@ -156,16 +160,40 @@ def _encode(header: dict, channels: dict, fh) -> None:
     OpenEXR.File(header, channels).write(fh)
 
 
-def write_exr(image: Image, path) -> None:
+def _file_planes(image: Image, channels) -> tuple[dict[str, np.ndarray], set[str]]:
+    """({EXR name: stored array}, names holding objectId) of an OutputChannel list (None: all)."""
+    if channels is None:
+        channels = [OutputChannel(name, name) for name in image.channel_names]
+    planes: dict[str, np.ndarray] = {}
+    for channel in map(OutputChannel._make, channels):
+        if not channel.name or channel.name in planes:
+            raise ValueError(f"EXR channel name {channel.name!r} is empty or given twice")
+        plane = image.file_channel(channel.source)
+        if channel.half:
+            if plane.dtype.kind != "f":
+                raise ValueError(f"channel {channel.source} is {plane.dtype}, it cannot be stored as HALF")
+            with np.errstate(over="ignore"):  # beyond 65504: +-inf, as any HALF writer
+                plane = plane.astype(np.float16)
+        planes[channel.name] = plane
+    if not planes:
+        raise ValueError("no channels to write")
+    ids = {c.name for c in map(OutputChannel._make, channels) if c.source == MANIFEST_CHANNEL}
+    return planes, ids
+
+
+def write_exr(image: Image, path, channels=None) -> None:
     """Write ``image`` to ``path`` (SPEC §4), atomically.
 
+    channels: None writes ``image.channel_names`` under their own names; otherwise
+    :class:`~warp_st.film.OutputChannel` items (name, source, half); OpenEXR stores
+    the channels sorted by name.
     Raises an OSError naming ``path`` if its directory is missing or not writable;
     a failure while encoding leaves ``path`` untouched and no temporary file.
     """
-    header = _header(image)
-    channels = {name: image.file_channel(name) for name in image.channel_names}
+    planes, id_channels = _file_planes(image, channels)
+    header = _header(image, id_channels)
     with atomic_output(path) as fh:
-        _encode(header, channels, fh)
+        _encode(header, planes, fh)
 
 
 # --- reading -------------------------------------------------------------------
@@ -256,12 +284,17 @@ def _header_float(header: dict, key: str, default: float) -> float:
 
 
 def _read_manifest(manifest) -> dict[int, str]:
+    """The prim paths of the group on ``objectId``, else of the first ``primPath`` group
+    (objectId written under another name)."""
     result: dict[int, str] = {}
     if manifest is None:
         return result
     if not isinstance(manifest, OpenEXR.IDManifest):
         raise ValueError(f"header attribute {ATTR_ID_MANIFEST} is damaged ({type(manifest).__name__})")
     index = manifest.find(MANIFEST_CHANNEL)
+    if index >= manifest.size():
+        index = next((i for i in range(manifest.size())
+                      if list(manifest[i].getComponents()) == [MANIFEST_COMPONENT]), manifest.size())
     if index >= manifest.size():
         return result
     for entry in manifest[index]:
@@ -271,20 +304,21 @@ def _read_manifest(manifest) -> dict[int, str]:
 
 
 def read_exr(path) -> Image:
-    """Read an EXR written by :func:`write_exr` (or any EXR with R, G, B, A).
+    """Read an EXR written by :func:`write_exr` (or any other scanline EXR).
 
     Returns an :class:`Image` with absolute float64 eventTime / sourceTime
-    (channel + spacetime:timeOrigin). Channels absent from the file are filled with
-    their background values and ``Image.channels`` lists those present. A
-    missing, corrupt or non-EXR file, or one without R, G, B, A, raises
+    (channel + spacetime:timeOrigin). SPEC channels absent from the file are
+    filled with their background values and ``Image.channels`` lists those
+    present; channels with other names (renamed RenderVars) are kept as stored in
+    ``Image.extra``. A missing, corrupt or non-EXR file raises
     :class:`warp_st.SceneError` naming the file.
     """
     path = Path(path)
     header, planes, types, _ = _open_pixels(path)
-    missing = [n for n in REQUIRED_CHANNELS if n not in planes]
-    if missing:
-        raise SceneError(f"{path}: missing channel(s) {', '.join(missing)}")
+    if not planes:
+        raise SceneError(f"{path}: has no channels")
     known = {}
+    extra = {name: plane for name, plane in planes.items() if name not in CHANNEL_NAMES}
     for name in CHANNEL_NAMES:
         if name not in planes:
             continue
@@ -310,6 +344,7 @@ def read_exr(path) -> Image:
             precision=str(header.get(ATTR_PRECISION, "")),
             id_manifest=_read_manifest(header.get(ATTR_ID_MANIFEST)),
             metadata=metadata,
+            extra=extra,
         )
     except (KeyError, ValueError, TypeError) as exc:  # a damaged or foreign header
         raise SceneError(f"{path}: {exc}") from None
@@ -360,8 +395,9 @@ def read_header(path) -> dict[str, str]:
     return {key: _safe_display(header[key]) for key in sorted(header)}
 
 
-def is_complete_exr(path) -> bool:
-    """True if ``path`` is a readable EXR with R, G, B, A whose pixels all decode.
+def is_complete_exr(path, channels=()) -> bool:
+    """True if ``path`` is a readable EXR whose pixels all decode, all channels the
+    same non-empty size, holding every name in ``channels``.
 
     Used by ``warp-st render --resume`` to skip frames already written.
     """
@@ -370,7 +406,7 @@ def is_complete_exr(path) -> bool:
         header, planes, _, parts = _open_pixels(path)
     except SceneError:
         return False
-    if parts < 1 or any(n not in planes for n in REQUIRED_CHANNELS):
+    if parts < 1 or not planes or any(n not in planes for n in channels):
         return False
-    shapes = {planes[n].shape for n in REQUIRED_CHANNELS}
+    shapes = {plane.shape for plane in planes.values()}
     return len(shapes) == 1 and all(s > 0 for s in shapes.pop())

@@ -148,11 +148,12 @@ def _body_size(body: Body) -> float:
     return max(extent, 1e-6)
 
 
-def extrude_scene(scene: Scene, windows: list[tuple[float, float] | None]) -> SpacetimeMesh:
+def extrude_scene(scene: Scene, windows: list) -> SpacetimeMesh:
     """Extrude every body of ``scene`` over its visible time window.
 
-    windows[i] is the lab-time interval of body i that the frames can see (already
-    intersected with its lifetime), or None when the body is never visible.
+    windows[i] is the lab-time window of body i that the frames can see (already
+    intersected with its lifetime): an interval (lo, hi), a tuple of disjoint
+    intervals (each extruded on its own), or None when the body is never visible.
     """
     materials: list = []
     mat_index: dict = {}
@@ -160,10 +161,12 @@ def extrude_scene(scene: Scene, windows: list[tuple[float, float] | None]) -> Sp
     tri_normal, tri_smooth, tri_size, tri_body, tri_material = [], [], [], [], []
     v_base = 0
     t_base = 0
+    from .visibility import intervals
+
     for b_index, (body, window) in enumerate(zip(scene.bodies, windows)):
-        if window is None or not body.surfaces:
+        parts = intervals(window)
+        if not parts or not body.surfaces:
             continue
-        slices = body_slices(body, window)
         A = contraction_matrix(body.velocity, body.decoupled)
         A_inv_t = np.linalg.inv(A).T
         for surf in body.surfaces:
@@ -174,14 +177,11 @@ def extrude_scene(scene: Scene, windows: list[tuple[float, float] | None]) -> Sp
             n_pts = len(pts)
             # Contracted offsets from the pivot at the reference time.
             local = (pts - body.origin) @ A.T + body.origin
-            ev = _slice_events(local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
-            verts.append(ev.reshape(-1, 4))
             if surf.normals is not None:
                 nrm = np.asarray(surf.normals, dtype=np.float64) @ A_inv_t.T
                 nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
             else:
                 nrm = np.zeros((n_pts, 3))
-            vnorms.append(np.broadcast_to(nrm, (len(slices), n_pts, 3)).reshape(-1, 3))
 
             # Triangle normals of the contracted shape (lab frame, constant in time).
             e1 = local[tris[:, 1]] - local[tris[:, 0]]
@@ -200,12 +200,17 @@ def extrude_scene(scene: Scene, windows: list[tuple[float, float] | None]) -> Sp
             tri_body.append(np.full(n_tri, b_index, dtype=np.int32))
             tri_material.append(np.full(n_tri, mat_index[key], dtype=np.int32))
 
-            tets.append(_prism_tets(tris, n_pts, len(slices) - 1) + v_base)
-            tet_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), 3 * (len(slices) - 1)) + t_base)
-            prisms.append(_prisms(tris, n_pts, len(slices) - 1) + v_base)
-            prism_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), len(slices) - 1) + t_base)
-            spans.append(np.repeat(prism_spans(slices), n_tri, axis=0))
-            v_base += len(slices) * n_pts
+            for part in parts:  # each interval of the window: its own slices
+                slices = body_slices(body, part)
+                ev = _slice_events(local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
+                verts.append(ev.reshape(-1, 4))
+                vnorms.append(np.broadcast_to(nrm, (len(slices), n_pts, 3)).reshape(-1, 3))
+                tets.append(_prism_tets(tris, n_pts, len(slices) - 1) + v_base)
+                tet_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), 3 * (len(slices) - 1)) + t_base)
+                prisms.append(_prisms(tris, n_pts, len(slices) - 1) + v_base)
+                prism_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), len(slices) - 1) + t_base)
+                spans.append(np.repeat(prism_spans(slices), n_tri, axis=0))
+                v_base += len(slices) * n_pts
             t_base += n_tri
 
     def cat(parts, shape, dtype):

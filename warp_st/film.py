@@ -19,7 +19,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Mapping
+from typing import Mapping, NamedTuple
 
 import numpy as np
 
@@ -32,6 +32,7 @@ __all__ = [
     "relative_f32",
     "absolute_time",
     "quantize_time",
+    "OutputChannel",
     "Image",
 ]
 
@@ -50,7 +51,8 @@ class ChannelSpec:
         background colour on such pixels; 0 is only their fill value.)
     relative_time: stored as float32 (absolute - spacetime:timeOrigin).
     units: label for plots and ``inspect``.
-    required: a file without this channel is not a warp_st image.
+    required: a file written with every channel that lacks it is incomplete
+        (``--resume`` renders it again); RenderVar files may hold any subset.
     """
 
     name: str
@@ -141,6 +143,19 @@ def quantize_time(absolute, origin: float) -> np.ndarray:
     return absolute_time(relative_f32(absolute, origin), origin)
 
 
+class OutputChannel(NamedTuple):
+    """One channel of a written file: its EXR name, the channel it holds (a SPEC §4
+    name, or an extra channel of the image) and whether a FLOAT is stored as HALF."""
+
+    name: str
+    source: str
+    half: bool = False
+
+
+#: dtypes an extra (non-SPEC) channel may have: what EXR stores (HALF, FLOAT, UINT).
+_EXTRA_DTYPES = (np.dtype(np.float16), np.dtype(np.float32), np.dtype(np.uint32))
+
+
 def _plane(shape: tuple[int, int], spec: ChannelSpec) -> np.ndarray:
     return np.full(shape, spec.background, dtype=_FIELD_DTYPES[spec.attribute])
 
@@ -164,8 +179,11 @@ class Image:
     Planes left as None are filled with their background value. Header values:
     camera_time (t_c), time_origin (defaults to camera_time), frame (USD time
     code), precision, id_manifest (objectId -> prim path), metadata (extra string
-    attributes, written as ``spacetime:<key>``; the writer adds ``version``), and
-    channels: the EXR channels to write (None = all of SPEC §4).
+    attributes, written as ``spacetime:<key>``; the writer adds ``version``),
+    channels: the SPEC §4 channels held (None = all; a file read back lists those
+    it had), and extra: channels outside SPEC §4 read from a file (renamed
+    RenderVar outputs such as ``beauty.R``), name -> (H, W) array as stored
+    (float16, float32 or uint32; a renamed eventTime is relative to time_origin).
     """
 
     rgba: np.ndarray
@@ -183,6 +201,7 @@ class Image:
     id_manifest: dict[int, str] = field(default_factory=dict)
     metadata: dict[str, str] = field(default_factory=dict)
     channels: tuple[str, ...] | None = None
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         rgba = np.ascontiguousarray(self.rgba, dtype=np.float32)
@@ -211,10 +230,15 @@ class Image:
             names = tuple(self.channels)
             for name in names:
                 channel_spec(name)
-            missing = [n for n in REQUIRED_CHANNELS if n not in names]
-            if missing:
-                raise ValueError(f"Image.channels must include {', '.join(missing)}")
             self.channels = tuple(n for n in CHANNEL_NAMES if n in names)  # SPEC order, no duplicates
+        extra = {}
+        for name, value in dict(self.extra).items():
+            value = np.ascontiguousarray(value)
+            if name in CHANNEL_NAMES or value.shape != shape or value.dtype not in _EXTRA_DTYPES:
+                raise ValueError(f"Image.extra[{name!r}] must be a non-SPEC name with a {shape} "
+                                 f"float16, float32 or uint32 array, got {value.dtype} {value.shape}")
+            extra[str(name)] = value
+        self.extra = extra
 
     @property
     def height(self) -> int:
@@ -226,14 +250,16 @@ class Image:
 
     @property
     def channel_names(self) -> tuple[str, ...]:
-        """The channels this image writes (SPEC order)."""
-        return self.channels if self.channels is not None else CHANNEL_NAMES
+        """The channels this image holds and writes: SPEC ones (SPEC order), then the extras."""
+        return (self.channels if self.channels is not None else CHANNEL_NAMES) + tuple(self.extra)
 
     def channel(self, name: str) -> np.ndarray:
-        """The (H, W) plane of SPEC channel ``name``; eventTime / sourceTime absolute float64.
+        """The (H, W) plane of channel ``name``; eventTime / sourceTime absolute float64.
 
-        R, G, B, A are views into ``rgba``.
+        R, G, B, A are views into ``rgba``; an extra channel is returned as stored.
         """
+        if name in self.extra:
+            return self.extra[name]
         spec = channel_spec(name)
         value = getattr(self, spec.attribute)
         return value[..., spec.component] if spec.component is not None else value
@@ -243,8 +269,11 @@ class Image:
     def file_channel(self, name: str) -> np.ndarray:
         """Channel ``name`` as stored in the EXR: float32 or uint32, contiguous (H, W).
 
-        eventTime / sourceTime become :func:`relative_f32` of the time origin.
+        eventTime / sourceTime become :func:`relative_f32` of the time origin; an extra
+        channel is returned as stored.
         """
+        if name in self.extra:
+            return self.extra[name]
         spec = channel_spec(name)
         value = self.channel(name)
         if spec.relative_time:
@@ -257,18 +286,22 @@ class Image:
         planes: Mapping[str, np.ndarray],
         *,
         time_origin: float,
+        extra: Mapping[str, np.ndarray] | None = None,
         **header,
     ) -> "Image":
         """Inverse of :meth:`file_channel`: build an Image from stored planes.
 
-        planes: channel name -> (H, W) stored array; must contain R, G, B, A.
-        Channels of SPEC §4 that are absent are filled with their background values
-        and ``channels`` records which were present (None when all were).
+        planes: SPEC channel name -> (H, W) stored array; extra: the file's other
+        channels; at least one in all. Channels of SPEC §4 that are absent are filled
+        with their background values (R, G, B, A with 0) and ``channels`` records
+        which were present (None when all were).
         """
-        missing = [n for n in REQUIRED_CHANNELS if n not in planes]
-        if missing:
-            raise KeyError(f"missing channel(s) {', '.join(missing)}")
-        rgba = np.stack([np.asarray(planes[n], dtype=np.float32) for n in ("R", "G", "B", "A")], axis=-1)
+        extra = dict(extra or {})
+        if not planes and not extra:
+            raise KeyError("no channels")
+        shape = np.shape(next(iter({**planes, **extra}.values())))
+        rgba = np.stack([np.asarray(planes[n], dtype=np.float32) if n in planes else np.zeros(shape, np.float32)
+                         for n in ("R", "G", "B", "A")], axis=-1)
         fields = {}
         for spec in CHANNELS:
             if spec.component is not None or spec.name not in planes:
@@ -277,15 +310,16 @@ class Image:
             fields[spec.attribute] = absolute_time(stored, time_origin) if spec.relative_time else stored
         present = tuple(n for n in CHANNEL_NAMES if n in planes)
         channels = None if present == CHANNEL_NAMES else present
-        return cls(rgba=rgba, time_origin=time_origin, channels=channels, **fields, **header)
+        return cls(rgba=rgba, time_origin=time_origin, channels=channels, extra=extra, **fields, **header)
 
     # --- convenience ------------------------------------------------------------
 
-    def write_exr(self, path) -> None:
-        """Write this frame to ``path`` atomically (see :func:`warp_st.exr.write_exr`)."""
+    def write_exr(self, path, channels=None) -> None:
+        """Write this frame to ``path`` atomically: every channel, or the
+        :class:`OutputChannel` list ``channels`` (see :func:`warp_st.exr.write_exr`)."""
         from .exr import write_exr
 
-        write_exr(self, path)
+        write_exr(self, path, channels)
 
     def replace(self, **changes) -> "Image":
         """A copy with some fields replaced (arrays are shared, not copied)."""

@@ -97,23 +97,25 @@ def count_database(scene: Scene, windows) -> tuple[int, int, list[int]]:
     building it. A window that is not finite raises SceneError naming the body.
     """
     from .extrude import body_slices
+    from .visibility import intervals
 
     tets, verts, per_body = 0, 0, []
     for body, window in zip(scene.bodies, windows):
         n_body = 0
-        if window is not None and body.surfaces:
-            if not all(math.isfinite(float(t)) for t in window):
+        parts = intervals(window)
+        if parts and body.surfaces:
+            if not all(math.isfinite(t) for part in parts for t in part):
                 raise SceneError.at(
                     scene.source, body.prim_path, None,
-                    f"its visible time window {tuple(window)} is not finite (positions, speeds or times too large)",
+                    f"its visible time window {_window_text(window)} is not finite (positions, speeds or times too large)",
                 )
-            segments = len(body_slices(body, window)) - 1
+            segments = sum(len(body_slices(body, part)) - 1 for part in parts)
             for surf in body.surfaces:
                 tris = np.asarray(surf.triangles).reshape(-1, 3)
                 n_tri = int(((tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])).sum())
                 if n_tri:
                     n_body += 3 * n_tri * segments
-                    verts += (segments + 1) * len(surf.points)
+                    verts += (segments + len(parts)) * len(surf.points)
         per_body.append(n_body)
         tets += n_body
     return tets, verts, per_body
@@ -192,9 +194,19 @@ def resolve_max_memory(max_memory, source: str | None) -> int | None:
     return value
 
 
+def _window_text(window) -> str:
+    from .visibility import intervals
+
+    parts = intervals(window)
+    return str(parts[0]) if len(parts) == 1 else " + ".join(str(p) for p in parts)
+
+
 def _check_windows(scene: Scene, windows, max_depth: int) -> None:
     """SceneError for a visible window whose coordinates would pass MAX_WINDOW, naming its likely cause."""
+    from .visibility import span
+
     for body, window in zip(scene.bodies, windows):
+        window = span(window)
         reach = max(abs(float(t)) for t in window) * max(1.0, body.speed) if window is not None else 0.0
         if reach <= MAX_WINDOW:  # False for NaN
             continue

@@ -22,7 +22,7 @@ from .extrude import SpacetimeMesh, adapt_sphere_tessellation, extrude_scene
 from .film import Image, quantize_time
 from .limits import check_resources, resolve_max_memory
 from .scene import CameraState, Scene, SceneError
-from .visibility import hull, visibility_windows
+from .visibility import union, visibility_windows
 
 __all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION", "PRIMITIVES"]
 
@@ -215,14 +215,16 @@ class Renderer:
         modes = {self._frame_light_speed(c) for c in cams}
         windows = None
         # The shutter moves each camera event along its worldline by up to `shutter`.
-        cams = cams + [_advanced(c, self.shutter) for c in cams if self.shutter > 0.0 and self.samples > 1]
+        shutter = self.shutter if self.samples > 1 else 0.0
+        ends = cams + [c.advanced(shutter) for c in cams if shutter > 0.0]
         # UsdGeom.Spheres: the cheapest tessellation within half a pixel in every frame.
         scene, self.sphere_segments = adapt_sphere_tessellation(
-            self.scene, cams, width=self.width, height=self.height,
+            self.scene, ends, width=self.width, height=self.height,
             modes=sorted(m == LightSpeed.INFINITE for m in modes), max_depth=self.max_depth)
-        for mode in modes:  # hull of the windows of every light-speed mode in use
-            w = visibility_windows(scene, cams, infinite=mode == LightSpeed.INFINITE, max_depth=self.max_depth)
-            windows = w if windows is None else [hull(a, b) for a, b in zip(windows, w)]
+        for mode in modes:  # union of the windows of every light-speed mode in use
+            w = visibility_windows(scene, cams, infinite=mode == LightSpeed.INFINITE, max_depth=self.max_depth,
+                                   shutter=shutter)
+            windows = w if windows is None else [union(a, b) for a, b in zip(windows, w)]
         # Refuse before allocating: the tetrahedron count is known from the windows.
         self.memory_estimate = check_resources(scene, windows, width=self.width, height=self.height,
                                                samples=self.samples, max_depth=self.max_depth,
@@ -364,13 +366,6 @@ class Renderer:
                 "searchlight": str(self.searchlight).lower(),
             },
         )
-
-
-def _advanced(cam: CameraState, dt: float) -> CameraState:
-    """The camera event ``dt`` later along the camera's worldline."""
-    import dataclasses
-
-    return dataclasses.replace(cam, time=cam.time + dt, position=np.asarray(cam.position) + np.asarray(cam.velocity) * dt)
 
 
 def build_database(scene: Scene, windows: list, primitive: str = "prism") -> tuple[SpacetimeMesh, FlatBVH]:

@@ -20,6 +20,8 @@ __all__ = [
     "Light",
     "CameraState",
     "RenderSettings",
+    "RenderVar",
+    "RenderProduct",
     "Scene",
 ]
 
@@ -145,6 +147,11 @@ class CameraState:
     velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     decoupled: bool = False
 
+    def advanced(self, dt: float) -> "CameraState":
+        """The camera event ``dt`` later along the camera's worldline (a shutter's end)."""
+        return dataclasses.replace(self, time=self.time + dt,
+                                   position=np.asarray(self.position) + np.asarray(self.velocity) * dt)
+
 
 @dataclass(frozen=True)
 class RenderSettings:
@@ -166,6 +173,51 @@ class RenderSettings:
         return dataclasses.replace(self, **{k: v for k, v in overrides.items() if v is not None})
 
 
+@dataclass(frozen=True)
+class RenderVar:
+    """A UsdRender.Var resolved to SPEC §4 channels (``warp_st.usd.products``).
+
+    channels: (EXR channel name, SPEC §4 channel) pairs, R before G before B before A.
+    half: the FLOAT channels are stored as HALF (dataType half, color3h, ...).
+    """
+
+    prim_path: str
+    source_name: str
+    data_type: str
+    channels: tuple[tuple[str, str], ...]
+    half: bool = False
+
+
+@dataclass(frozen=True)
+class RenderProduct:
+    """A UsdRender.Product: one EXR file per frame holding its vars' channels.
+
+    name: productName's default value; name_samples: its time samples as
+    (time code, name) pairs in time order, which win over the default at every
+    frame (USD value resolution; tokens are held, never interpolated).
+    camera, resolution: authored on the product (None: the settings' apply).
+    """
+
+    prim_path: str
+    name: str
+    vars: tuple[RenderVar, ...]
+    name_samples: tuple[tuple[float, str], ...] = ()
+    camera: str | None = None
+    resolution: tuple[int, int] | None = None
+
+    def name_at(self, frame: float) -> str:
+        """productName at time code ``frame`` (held: the last sample at or before it,
+        the first sample before them all)."""
+        if not self.name_samples:
+            return self.name
+        name = self.name_samples[0][1]
+        for time, value in self.name_samples:
+            if time > frame:
+                break
+            name = value
+        return name
+
+
 @dataclass(frozen=True, eq=False)
 class Scene:
     """Everything a render needs, read once from a stage.
@@ -174,6 +226,7 @@ class Scene:
     cameras: prim paths of the stage's cameras, traversal order.
     default_camera: the settings' camera, else the first camera; None if none.
     frame_range: the stage's (startTimeCode, endTimeCode) when authored.
+    products: the settings' UsdRender products in ``products`` order (empty: none).
     camera_state: ``camera_state(path, frame) -> CameraState`` evaluates a camera
         at a USD time code (the camera is the one thing that changes per frame).
     """
@@ -187,6 +240,7 @@ class Scene:
     up_axis: str = "Y"
     frame_range: tuple[float, float] | None = None
     default_camera: str | None = None
+    products: tuple[RenderProduct, ...] = ()
 
     def body_paths(self) -> list[str]:
         return [b.prim_path for b in self.bodies]

@@ -15,7 +15,10 @@ lights the window also covers everything the hit events' lightcones can reach: t
 same bound with the camera replaced by the ball holding every hit event.
 
 The windows are conservative: a wider window only adds exact geometry, so clipping
-never changes an image.
+never changes an image. A body's window is a union of disjoint intervals: frames far
+apart in time (a sparse frame list such as 0-1000x100) are grouped apart, each group
+bounded on its own, so the database holds what each group sees instead of the whole
+span between them.
 """
 from __future__ import annotations
 
@@ -24,7 +27,7 @@ import numpy as np
 from .extrude import contraction_matrix
 from .scene import Body, CameraState, Scene
 
-__all__ = ["body_ball", "frame_window", "hull", "visibility_windows"]
+__all__ = ["body_ball", "frame_window", "hull", "intervals", "union", "span", "visibility_windows"]
 
 #: Cap on how far into the past a window may reach when the bound is unbounded
 #: (only for a decoupled body at exactly |v| = 1), in multiples of the scene size.
@@ -96,20 +99,83 @@ def hull(a, b):
     return (min(a[0], b[0]), max(a[1], b[1]))
 
 
-def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bool, max_depth: int = 0) -> list:
-    """Per body: the lab-time window the frames (through up to ``max_depth`` mirror
-    reflections and, with lights, shadow rays) can see.
+def intervals(window) -> list[tuple[float, float]]:
+    """A window as a list of (lo, hi) intervals: None -> [], (lo, hi) -> [(lo, hi)],
+    a tuple of intervals -> those."""
+    if window is None:
+        return []
+    if len(window) == 2 and np.ndim(window[0]) == 0:
+        return [(float(window[0]), float(window[1]))]
+    return [(float(a), float(b)) for a, b in window]
 
-    Intersected with the body's lifetime; None where a body is never visible.
+
+def union(a, b):
+    """Union of two windows as a tuple of disjoint ascending intervals (None if empty)."""
+    merged: list[list[float]] = []
+    for lo, hi in sorted(intervals(a) + intervals(b)):
+        if merged and lo <= merged[-1][1]:
+            merged[-1][1] = max(merged[-1][1], hi)
+        else:
+            merged.append([lo, hi])
+    return tuple((lo, hi) for lo, hi in merged) or None
+
+
+def span(window):
+    """The smallest single interval holding ``window`` (None if empty)."""
+    parts = intervals(window)
+    return (min(p[0] for p in parts), max(p[1] for p in parts)) if parts else None
+
+
+def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bool, max_depth: int = 0,
+                       shutter: float = 0.0) -> list:
+    """Per body: the lab times the frames (through up to ``max_depth`` mirror reflections
+    and, with lights, shadow rays) can see, as a tuple of disjoint intervals.
+
+    Each camera stands for its events from t_c to t_c + ``shutter`` (motion blur): its
+    window is the hull of both ends'. Intersected with the body's lifetime; None where
+    a body is never visible.
     """
     balls = [body_ball(b) for b in scene.bodies]
-    windows = []
-    for body, (m0, rho) in zip(scene.bodies, balls):
-        win = None
-        for cam in cameras:
-            win = hull(win, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position, infinite=infinite))
-        windows.append(win)
+    ends = [[cam, cam.advanced(shutter)] if shutter > 0.0 else [cam] for cam in cameras]
+    direct = []
+    for cam_ends in ends:
+        row = [None] * len(scene.bodies)
+        for cam in cam_ends:
+            row = [hull(w, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position,
+                                        infinite=infinite))
+                   for w, body, (m0, rho) in zip(row, scene.bodies, balls)]
+        direct.append(row)
+    out = [None] * len(scene.bodies)
+    for group in _camera_groups(cameras, direct):
+        windows = [None] * len(scene.bodies)
+        for c in group:
+            windows = [hull(w, d) for w, d in zip(windows, direct[c])]
+        group_cams = [cam for c in group for cam in ends[c]]
+        for i, win in enumerate(_extended(scene, balls, windows, group_cams, infinite, max_depth)):
+            out[i] = union(out[i], win)
+    return out
 
+
+def _camera_groups(cameras, direct) -> list[list[int]]:
+    """Cameras in time order, split where a frame's windows overlap none of the previous
+    group's (no body is visible in both): each group's windows are bounded on their own."""
+    order = sorted(range(len(cameras)), key=lambda c: cameras[c].time)
+    groups: list[list[int]] = []
+    current = None
+    for c in order:
+        if current is not None and any(
+            g is not None and d is not None and d[0] <= g[1] and g[0] <= d[1] for g, d in zip(current, direct[c])
+        ):
+            groups[-1].append(c)
+            current = [hull(g, d) for g, d in zip(current, direct[c])]
+        else:
+            groups.append([c])
+            current = list(direct[c])
+    return groups
+
+
+def _extended(scene, balls, windows, cameras, infinite, max_depth) -> list:
+    """One group's windows widened for mirrors and shadows, padded, clipped to lifetimes."""
     mirrors = [i for i, b in enumerate(scene.bodies) if any(s.material.metallic > 0.0 for s in b.surfaces)]
     if mirrors and max_depth > 0 and not infinite and any(w is not None for w in windows):
         windows = _extend_for_mirrors(scene, balls, windows, cameras, mirrors, max_depth)

@@ -1,18 +1,19 @@
 """``warp-st render``: frames of a stage to EXR files, atomically, resumable."""
 from __future__ import annotations
 
+import json
 import os
 import shlex
 import sys
-import time
 import traceback
 from pathlib import Path
 
 from ..frames import finite_frame, frame_label, frames_label, parse_frames
+from ..farm import LOCAL_FRAMES, MIN_CORES
 from .common import (PROG, UsageError, error, interrupted_status, interruption, non_negative_float,
                      non_negative_int, positive_int, size_arg)
-from ..outputs import FrameJob, OutputPlanError, job_complete, plan_pattern, write_outputs
-from .load import file_hash, held_diagnostics, load
+from ..outputs import FrameJob, OutputPlanError, plan_pattern, plan_products, single_view
+from .load import file_hash, load
 
 
 def add_arguments(parser) -> None:
@@ -48,13 +49,31 @@ def add_arguments(parser) -> None:
     parser.add_argument("--no-references", action="store_true",
                         help="compose only the file's own layers: ignore references and payloads (untrusted stages)")
     parser.add_argument("--quiet", "-q", action="store_true", help="print nothing but errors")
+    farm = parser.add_mutually_exclusive_group()
+    farm.add_argument("--workers", type=non_negative_int, metavar="N",
+                      help="render on a local Dask cluster of N worker processes; 0: in this process "
+                      f"(default: in this process for up to {LOCAL_FRAMES} frames or on fewer than {MIN_CORES} "
+                      "cores, else one worker per core)")
+    farm.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                      help="render on the workers of a running Dask scheduler (shared filesystem: see docs/pipeline.md)")
+    parser.add_argument("--log", metavar="FILE.jsonl",
+                        help="append one JSON line per frame to FILE ('-': print them on stdout instead of the "
+                        "usual lines)")
 
-def plan_outputs(args, scene_path: Path, frames: list[float], frames_given: bool) -> list[FrameJob]:
-    """The frame jobs of ``-o`` (default ``<scene stem>.exr`` / ``<scene stem>.####.exr``)."""
+def plan_outputs(args, scene_path: Path, frames: list[float], frames_given: bool, scene=None) -> list[FrameJob]:
+    """The frame jobs of ``-o`` (every channel; default ``<scene stem>.exr`` /
+    ``<scene stem>.####.exr``), or without ``-o`` those of the loaded ``scene``'s UsdRender
+    products (see docs/usd_render_products.md); ``--camera`` / ``--width`` / ``--height``
+    override the products' own."""
     pattern = args.output
     if pattern is None:
         pattern = f"{scene_path.stem}.####.exr" if frames_given else f"{scene_path.stem}.exr"
     try:
+        if args.output is None and scene is not None and scene.products:
+            jobs = plan_products(scene, frames, camera=args.camera,
+                                 size_given=args.width is not None or args.height is not None)
+            single_view(jobs)
+            return jobs
         return plan_pattern(pattern, frames)
     except OutputPlanError as exc:
         raise UsageError(str(exc)) from None
@@ -68,6 +87,7 @@ def _options_text(args) -> str:
 
 def run(args, argv: list[str]) -> int:
     from ..conventions import LightSpeed, Precision
+    from ..sequence import StageFile, render_sequence
 
     scene_path = Path(args.scene)
     if not scene_path.is_file():
@@ -79,97 +99,107 @@ def run(args, argv: list[str]) -> int:
         frames = [float(args.frame)]
     else:
         frames = None  # the stage's start time code: known once it is loaded
-    if frames is not None:  # check the output names before the (slower) load
+    if frames is not None and args.output is not None:  # check -o names before the (slower) load
         plan_outputs(args, scene_path, frames, frames_given)
+    if args.log not in (None, "-"):
+        from ..exr import check_output_path
+
+        try:
+            check_output_path(args.log)
+        except OSError as exc:
+            raise UsageError(f"--log: {exc.strerror or exc}") from None
     stage_hash = file_hash(scene_path)
     scene = load(scene_path, args.no_references, args.max_memory)
     if frames is None:
         frames = [float(scene.frame_range[0])] if scene.frame_range is not None else [0.0]
-    jobs = plan_outputs(args, scene_path, frames, frames_given)
+    jobs = plan_outputs(args, scene_path, frames, frames_given, scene)
+    camera, size = single_view(jobs)  # render products' own view, else the run's
 
-    complete: list[float] = []
-    todo: list[FrameJob] = []
-    for job in jobs:
-        if args.resume and job_complete(job):
-            complete.append(job.frame)
-            if not args.quiet:
-                names = ", ".join(str(o.path) for o in job.outputs)
-                print(f"frame {frame_label(job.frame)}: complete, skipped ({names})")
-        else:
-            todo.append(job)
-    if not todo:
-        if not args.quiet:
-            print(f"all {len(frames)} frame(s) already complete")
-        return 0
+    options = dict(
+        camera=camera or args.camera,
+        width=size[0] if size else args.width,
+        height=size[1] if size else args.height,
+        max_depth=args.max_depth,
+        samples=args.samples,
+        shutter=args.shutter,
+        doppler_color=args.doppler_color,
+        searchlight=args.searchlight,
+        precision=Precision(args.precision) if args.precision else None,
+        light_speed=LightSpeed(args.light_speed) if args.light_speed else None,
+        max_memory=args.max_memory,  # None: the Renderer's default limit (75% of the physical memory)
+    )
+    metadata = {"stage": str(scene_path), "stageHash": stage_hash, "commandLine": shlex.join([PROG, *argv])}
+    options_text = _options_text(args)
+    if options_text:
+        metadata["options"] = options_text
 
+    console = _Console(args)
     try:
-        from ..renderer import Renderer
-
-        with held_diagnostics():  # the camera is evaluated per frame here
-            renderer = Renderer(
-                scene,
-                frames=[job.frame for job in todo],
-                camera=args.camera,
-                width=args.width,
-                height=args.height,
-                max_depth=args.max_depth,
-                samples=args.samples,
-                shutter=args.shutter,
-                doppler_color=args.doppler_color,
-                searchlight=args.searchlight,
-                precision=Precision(args.precision) if args.precision else None,
-                light_speed=LightSpeed(args.light_speed) if args.light_speed else None,
-                # None: the Renderer's default limit (75% of the physical memory)
-                **({"max_memory": args.max_memory} if args.max_memory is not None else {}),
-            )
-        if not args.quiet:
-            stats = renderer.describe() or {}
-            if stats:
-                print("scene: " + ", ".join(f"{k}={v}" for k, v in stats.items()))
-
-        metadata = {"stage": str(scene_path), "stageHash": stage_hash, "commandLine": shlex.join([PROG, *argv])}
-        options = _options_text(args)
-        if options:
-            metadata["options"] = options
-
-        use_bar = not args.quiet and sys.stderr.isatty()
-        bar = None
-        if use_bar:
-            from tqdm import tqdm
-
-            bar = tqdm(total=len(todo), unit="frame", file=sys.stderr, dynamic_ncols=True)
-        try:
-            for job in todo:
-                frame = job.frame
-                start = time.perf_counter()
-                image = renderer.render(frame)
-                for key, value in metadata.items():
-                    image.metadata.setdefault(key, value)
-                write_outputs(image, job)
-                out = ", ".join(str(o.path) for o in job.outputs)
-                complete.append(frame)
-                seconds = time.perf_counter() - start
-                if bar is not None:
-                    bar.set_postfix_str(f"frame {frame_label(frame)} {seconds:.2f}s")
-                    bar.update(1)
-                elif not args.quiet:
-                    print(f"frame {frame_label(frame)}: {seconds:.2f} s -> {out}", flush=True)
-        finally:
-            if bar is not None:
-                bar.close()
+        result = render_sequence(
+            StageFile(scene_path, no_references=args.no_references, sha256=stage_hash, scene=scene),
+            output=jobs, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
+            progress=not args.quiet, log=console, metadata=metadata, **options)
     except KeyboardInterrupt as exc:
         print(
-            f"{PROG}: {interruption(exc)}; frames complete: {frames_label(complete)} "
-            f"({len(complete)} of {len(frames)}); rerun with --resume to continue",
+            f"{PROG}: {interruption(exc)}; frames complete: {frames_label(console.complete)} "
+            f"({len(console.complete)} of {len(frames)}); rerun with --resume to continue",
             file=sys.stderr,
         )
         return interrupted_status(exc)
     except OSError as exc:  # e.g. disk full: the frames written so far are complete
-        error(f"{exc}; frames complete: {frames_label(complete)} ({len(complete)} of {len(frames)}); "
-               "rerun with --resume to continue")
+        error(f"{exc}; frames complete: {frames_label(console.complete)} ({len(console.complete)} of "
+              f"{len(frames)}); rerun with --resume to continue")
         if os.environ.get("WARP_ST_DEBUG"):
             traceback.print_exc()
         return 1
+    finally:
+        console.close()
+    if not result.rendered and console.human:
+        print(f"all {len(frames)} frame(s) already complete")
     return 0
 
 
+class _Console:
+    """The records of a run (``warp_st.sequence``) as lines: human ones on stdout, JSON lines
+    appended to ``--log FILE`` or, with ``--log -``, on stdout instead of the human ones."""
+
+    def __init__(self, args):
+        self.json_stdout = args.log == "-"
+        self.human = not args.quiet and not self.json_stdout
+        self.bar = not args.quiet and sys.stderr.isatty()  # the per-frame lines give way to it
+        self.path = None if args.log in (None, "-") else args.log  # opened at the first record
+        self.file = None
+        self.complete: list[float] = []
+        self.described = False
+
+    def __call__(self, record: dict) -> None:
+        line = json.dumps(record)
+        if self.path is not None:
+            if self.file is None:
+                self.file = open(self.path, "a", encoding="utf-8")
+            self.file.write(line + "\n")
+            self.file.flush()
+        if self.json_stdout:
+            print(line, flush=True)
+        if record["event"] == "frame":
+            self.complete.append(record["frame"])
+        if not self.human:
+            return
+        if record["event"] == "build":
+            if not self.described:  # one line for the stage, however many workers build it
+                self.described = True
+                stats = {k: v for k, v in record.items() if k not in ("event", "worker", "seconds")}
+                print("scene: " + ", ".join(f"{k}={v}" for k, v in stats.items()), flush=True)
+            return
+        label, names = frame_label(record["frame"]), ", ".join(record["files"])
+        if record["status"] == "skipped":
+            print(f"frame {label}: complete, skipped ({names})", flush=True)
+        elif record["status"] == "recovered":
+            print(f"frame {label}: {record['seconds']:.2f} s -> {names} (rendered here: its worker was lost "
+                  "or its files were missing)", flush=True)
+        elif not self.bar:
+            print(f"frame {label}: {record['seconds']:.2f} s -> {names}", flush=True)
+
+    def close(self) -> None:
+        if self.file is not None:
+            self.file.close()

@@ -11,6 +11,7 @@ double precision are all accepted where a real number is asked for (SPEC §2:
 """
 from __future__ import annotations
 
+import contextvars
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +41,11 @@ __all__ = [
 
 SPACETIME_BODY_API = "SpacetimeBodyAPI"
 SPACETIME_CAMERA_API = "SpacetimeCameraAPI"
+
+#: (prim path, attribute name) pairs read as if unauthored. Set only by
+#: ``warp_st.usd.validators``, which reads a prim again with each attribute it has
+#: reported masked, so that one run lists every problem rather than the first.
+MASKED: contextvars.ContextVar[frozenset] = contextvars.ContextVar("warp_st_masked_attributes", default=frozenset())
 
 #: Geometry, bodies, lights and settings are read here: the 4D database never
 #: changes between frames; only the camera is evaluated per time code.
@@ -138,6 +144,9 @@ def _raw(where: Where, prim, name: str, kinds: frozenset[str], what: str, time, 
     fallback). A value authored only as time samples is an error at the default
     time code: bodies and geometry are static 4D objects.
     """
+    masked = MASKED.get()
+    if masked and (str(prim.GetPath()), name) in masked:
+        return None, False
     attr = prim.GetAttribute(name)
     if not attr or not attr.IsValid():
         return None, False

@@ -7,7 +7,8 @@ One traversal in stage order (instance proxies included) collects:
   at rest, with unbounded lifetime. Bodies with no visible geometry are dropped,
   so objectId = 1 + index counts only what can be seen. A camera is never a body.
 - cameras (UsdGeom.Camera), lights (UsdLux SphereLight / DistantLight) and the
-  render settings (UsdRender.Settings).
+  render settings (UsdRender.Settings) with their products and vars
+  (``products``).
 
 Everything but the camera is read at the default time code: the 4D database is
 static and animation comes only from advancing the camera's time. The camera is
@@ -35,6 +36,7 @@ from . import attributes as A
 from .attributes import DEFAULT_TIME, SPACETIME_BODY_API, Where, body_kinematics, has_api
 from .camera import CameraEvaluator
 from .geometry import GprimReader, is_hidden, world_transform
+from .products import read_products
 from .stage import open_stage, tf_message
 
 __all__ = ["load_scene", "open_stage", "CameraEvaluator", "body_kinematics"]
@@ -79,7 +81,10 @@ class _StageReader:
 
     def read(self, *, reopen: str | None = None, no_references: bool = False) -> Scene:
         self._traverse()
-        settings = self._render_settings()
+        settings_prim = self._settings_prim()
+        settings = self._render_settings(settings_prim)
+        products = () if settings_prim is None else read_products(self.where, self.stage, settings_prim,
+                                                                   self._resolution)
         cameras = tuple(self.cameras)
         default_camera = settings.camera or (cameras[0] if cameras else None)
         frame_range = None
@@ -96,6 +101,7 @@ class _StageReader:
             up_axis=str(UsdGeom.GetStageUpAxis(self.stage)),
             frame_range=frame_range,
             default_camera=default_camera,
+            products=products,
         )
 
     def _traverse(self) -> None:
@@ -194,24 +200,32 @@ class _StageReader:
         self.lights.append(Light("distant", radiance, direction=direction, prim_path=str(prim.GetPath())))
 
     # -- render settings ------------------------------------------------------------
-    def _render_settings(self) -> RenderSettings:
-        w = self.where
-        prim = None
+    def _settings_prim(self):
+        """The stage's renderSettingsPrimPath, else the first RenderSettings prim, else None."""
         chosen = self.stage.GetMetadata("renderSettingsPrimPath") or ""
         if chosen:
             prim = self.stage.GetPrimAtPath(chosen)
             if not prim or not prim.IsA(UsdRender.Settings):
-                raise SceneError.at(w.file, None, "renderSettingsPrimPath",
+                raise SceneError.at(self.where.file, None, "renderSettingsPrimPath",
                                     f"{chosen} is not a UsdRender.Settings prim")
-        elif self.settings_prims:
-            prim = self.settings_prims[0]
-        if prim is None:
-            return RenderSettings()
+            return prim
+        return self.settings_prims[0] if self.settings_prims else None
+
+    def _resolution(self, prim) -> tuple[int, int] | None:
+        """The authored ``resolution`` of a settings or product prim, validated."""
+        w = self.where
         resolution = A.int2(w, prim, "resolution")
         if resolution is not None and min(resolution) <= 0:
             raise w.error(prim, "resolution", f"must be positive, got {resolution}")
         if resolution is not None and resolution[0] * resolution[1] > MAX_PIXELS:
             raise w.error(prim, "resolution", f"{resolution[0]} x {resolution[1]} is more than {MAX_PIXELS} pixels")
+        return resolution
+
+    def _render_settings(self, prim) -> RenderSettings:
+        w = self.where
+        if prim is None:
+            return RenderSettings()
+        resolution = self._resolution(prim)
         camera = None
         targets = UsdRender.Settings(prim).GetCameraRel().GetForwardedTargets()
         if targets:

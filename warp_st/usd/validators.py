@@ -1,0 +1,470 @@
+"""warp_st's ``pxr.UsdValidation`` validators and :func:`validate_stage` (``warp-st validate``).
+
+The rules are the reader's own, not a second copy: each validator runs the reader
+function for one prim (``body_kinematics``, ``GprimReader.surface``, the light and
+render-settings readers, ``CameraEvaluator`` at the stage's time codes) and turns
+the :class:`SceneError` it raises into a ``UsdValidation.ValidationError``. After a
+problem the function runs again with the attribute it named read as unauthored
+(``attributes.MASKED``), so every problem of a prim is listed, not only the first
+(for a gprim only the first: a mesh's points, counts and indices depend on each other).
+
+Registered with ``UsdValidation.ValidationRegistry`` (Python registration, keyword
+``warpSt``; no ``schemaTypes``, because a stage authored without the schemas
+loaded must validate the same, SPEC §2):
+
+- ``warpSt:SpacetimeBody``: SpacetimeBodyAPI values (types, |v| >= 1 on a coupled
+  body, t <= 0, lifetime order, NaN / inf); a warning when the body has no visible
+  supported geometry (the reader drops it).
+- ``warpSt:Geometry``: Mesh / Sphere / Cube / PointInstancer data and transforms;
+  a warning for other gprims (Capsule, Cylinder, Cone, BasisCurves, Points,
+  Volume, ...), which are not rendered.
+- ``warpSt:Light``: SphereLight / DistantLight values; a warning for other lights.
+- ``warpSt:Stage``: a camera exists (a warning: an asset meant to be referenced
+  has none), the render settings and their products, each camera at the stage's
+  start and end time codes and its own time samples.
+
+Built-in validators run beside them (:data:`BUILTIN`): composition errors, material
+bindings without MaterialBindingAPI, a missing upAxis. ``AttributeTypeMismatch`` is
+not used: it requires the schema's exact type (double4) where SPEC §2 accepts float
+variants, and it knows nothing of a stage read without the schemas.
+"""
+from __future__ import annotations
+
+import threading
+import warnings
+from dataclasses import asdict, dataclass
+
+from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdValidation
+
+from ..scene import SceneError
+from .attributes import MASKED, SPACETIME_BODY_API, Where, body_kinematics, has_api
+from .camera import CameraEvaluator
+from .geometry import SUPPORTED_GPRIMS, GprimReader, is_hidden, world_transform
+from .stage import tf_message
+
+__all__ = ["Problem", "KEYWORD", "BUILTIN", "register", "validate_stage", "counts"]
+
+KEYWORD = "warpSt"
+
+#: Built-in validators run by :func:`validate_stage`: name -> (severity override or
+#: None to keep USD's, the error names reported or None for all).
+BUILTIN = {
+    "usdValidation:CompositionErrorTest": (None, None),
+    "usdShadeValidators:MaterialBindingApiAppliedValidator": ("warning", None),
+    "usdGeomValidators:StageMetadataChecker": ("warning", {"MissingUpAxisMetadata"}),
+}
+
+#: What the reader traverses (SPEC §2: instancing included).
+PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+
+_SEVERITY = {
+    UsdValidation.ValidationErrorType.Error: "error",
+    UsdValidation.ValidationErrorType.Warn: "warning",
+    UsdValidation.ValidationErrorType.Info: "info",
+}
+_TYPE = {"error": UsdValidation.ValidationErrorType.Error, "warning": UsdValidation.ValidationErrorType.Warn}
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One problem: severity ``error`` / ``warning`` / ``info``, where, what, and which validator."""
+
+    severity: str
+    file: str
+    prim: str | None
+    attribute: str | None
+    message: str
+    validator: str
+
+    @property
+    def location(self) -> str:
+        """``file``, ``file:/prim`` or ``file:/prim.attribute``."""
+        where = self.file
+        if self.prim:
+            where += f":{self.prim}"
+            if self.attribute:
+                where += f".{self.attribute}"
+        elif self.attribute:
+            where += f":{self.attribute}"
+        return where
+
+    def line(self) -> str:
+        return f"{self.severity.upper()} {self.location}: {self.message}"
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+# --- the reader's errors, one problem each, every problem of a prim ---------------------
+
+
+def _is_name(text: str) -> bool:
+    return Sdf.Path.IsValidNamespacedIdentifier(text)
+
+
+def _parse(text: str, *files: str) -> tuple[str | None, str | None, str]:
+    """(prim, attribute, problem) of a SceneError's ``file: prim: attribute: problem``
+    (``file`` one of ``files``)."""
+    rest = text
+    for file in files:
+        if file and text.startswith(file + ": "):
+            rest = text[len(file) + 2:]
+            break
+    prim = attribute = None
+    head, sep, tail = rest.partition(": ")
+    if sep and head.startswith("/") and Sdf.Path.IsValidPathString(head):
+        prim, rest = head, tail
+        head, sep, tail = rest.partition(": ")
+    if sep and _is_name(head):
+        attribute, rest = head, tail
+    return prim, attribute, rest
+
+
+def _every_problem(call, file: str, limit: int = 64, masked=()) -> list[tuple[str | None, str | None, str]]:
+    """Run ``call()`` until it succeeds; after each SceneError naming an attribute,
+    again with that attribute masked too. Returns the (prim, attribute, problem) found."""
+    masked = set(masked)
+    found = []
+    for _ in range(limit):
+        token = MASKED.set(frozenset(masked))
+        try:
+            call()
+            return found
+        except SceneError as exc:
+            prim, attribute, problem = _parse(str(exc), file)
+        except (Tf.ErrorException, UnicodeDecodeError) as exc:  # a value USD cannot unpack
+            found.append((None, None, f"cannot be read: {tf_message(exc)}"))
+            return found
+        finally:
+            MASKED.reset(token)
+        key = (prim, attribute)
+        if key in masked:
+            return found
+        found.append((prim, attribute, problem))
+        if prim is None or attribute is None:
+            return found
+        masked.add(key)
+    return found
+
+
+# --- run state: which file name to report, internal failures -----------------------------
+
+_lock = threading.Lock()
+_active: dict = {}  # {"stage": Usd.Stage, "file": label, "failures": [exceptions]}
+
+
+def _file_of(stage: Usd.Stage) -> str:
+    if _active and _active["stage"] == stage:
+        return _active["file"]
+    root = stage.GetRootLayer()
+    return root.realPath or root.identifier
+
+
+def _site(stage, prim: str | None, attribute: str | None):
+    path = Sdf.Path(prim) if prim else Sdf.Path.absoluteRootPath
+    if attribute and prim and _is_name(attribute):
+        path = path.AppendProperty(attribute)
+    return UsdValidation.ValidationErrorSite(stage, path)
+
+
+def _error(stage, severity: str, prim, attribute, message: str, name: str = "SceneError"):
+    """A ValidationError at ``prim[.attribute]``; an attribute that is no property name
+    (a stage metadatum, a formula) is kept in the message."""
+    if attribute and not (prim and _is_name(attribute)):
+        message = f"{attribute}: {message}"
+    return UsdValidation.ValidationError(name, _TYPE[severity], [_site(stage, prim, attribute)], message)
+
+
+def _errors(stage, call, *, every: bool = True) -> list:
+    """The errors of ``call()``: every problem, or (``every=False``, for values that depend
+    on each other such as a mesh's points and indices) only the first."""
+    file = _file_of(stage)
+    found = _every_problem(call, file, limit=64 if every else 1)
+    return [_error(stage, "error", p, a, m) for p, a, m in found]
+
+
+def _guarded(name: str, fn):
+    """``fn`` with any unexpected exception recorded for :func:`validate_stage` to raise
+    (exit 1), or reported as an error when run from elsewhere."""
+
+    def task(obj, *time_range):
+        try:
+            return fn(obj)
+        except Exception as exc:  # noqa: BLE001 - a bug must not vanish inside USD's traversal
+            if _active:
+                _active["failures"].append(exc)
+                return []
+            stage = obj if isinstance(obj, Usd.Stage) else obj.GetStage()
+            path = None if isinstance(obj, Usd.Stage) else str(obj.GetPath())
+            return [_error(stage, "error", path, None, f"internal error in {name}: {type(exc).__name__}: {exc}",
+                           "InternalError")]
+
+    return task
+
+
+# --- which prims the reader reads ---------------------------------------------------------
+
+
+def _pruned(prim) -> bool:
+    """True below a PointInstancer (prototypes are drawn through it) or a RenderSettings prim."""
+    parent = prim.GetParent()
+    while parent and not parent.IsPseudoRoot():
+        if parent.IsA(UsdGeom.PointInstancer) or parent.IsA(UsdRender.Settings):
+            return True
+        parent = parent.GetParent()
+    return False
+
+
+def _hidden(prim) -> bool:
+    """The prim or an ancestor is invisible or has the guide / proxy purpose."""
+    while prim and not prim.IsPseudoRoot():
+        if is_hidden(prim):
+            return True
+        prim = prim.GetParent()
+    return False
+
+
+def _owns_geometry(body) -> bool:
+    """True when a visible supported gprim or PointInstancer belongs to ``body`` (the
+    nearest SpacetimeBodyAPI ancestor wins)."""
+    it = iter(Usd.PrimRange(body, PREDICATE))
+    for prim in it:
+        if prim != body and has_api(prim, SPACETIME_BODY_API) and not prim.IsA(UsdGeom.Camera):
+            it.PruneChildren()
+        elif prim.IsA(UsdRender.Settings) or is_hidden(prim):
+            it.PruneChildren()
+        elif prim.IsA(UsdGeom.PointInstancer) or any(prim.IsA(t) for t in SUPPORTED_GPRIMS):
+            return True
+    return False
+
+
+# --- the validators -----------------------------------------------------------------------
+
+
+def _spacetime_body(prim) -> list:
+    if prim.IsPseudoRoot() or _pruned(prim) or prim.IsA(UsdRender.Settings) or not has_api(prim, SPACETIME_BODY_API):
+        return []
+    stage = prim.GetStage()
+    where = Where(_file_of(stage))
+    errors = _errors(stage, lambda: body_kinematics(where, prim))
+    if prim.IsA(UsdGeom.Camera):
+        return errors
+    xf = UsdGeom.XformCache(Usd.TimeCode.Default())  # its pivot o (SPEC §2), as the reader reads it
+    errors += _errors(stage, lambda: world_transform(where, prim, lambda: xf.GetLocalToWorldTransform(prim)),
+                      every=False)
+    if not _owns_geometry(prim):
+        errors.append(_error(stage, "warning", str(prim.GetPath()), None,
+                             "has SpacetimeBodyAPI but no visible Mesh, Sphere, Cube or PointInstancer of its own: "
+                             "nothing of this body is rendered", "EmptyBody"))
+    return errors
+
+
+def _geometry(prim) -> list:
+    is_instancer = prim.IsA(UsdGeom.PointInstancer)
+    if not (is_instancer or prim.IsA(UsdGeom.Gprim)) or _pruned(prim) or _hidden(prim):
+        return []
+    stage = prim.GetStage()
+    if not (is_instancer or any(prim.IsA(t) for t in SUPPORTED_GPRIMS)):
+        return [_error(stage, "warning", str(prim.GetPath()), None,
+                       f"{prim.GetTypeName()} gprims are not rendered (supported: Mesh, Sphere, Cube, "
+                       "PointInstancer); ignored", "UnsupportedPrim")]
+    reader = GprimReader(Where(_file_of(stage)), UsdGeom.XformCache(Usd.TimeCode.Default()))
+    call = (lambda: reader.instancer_surfaces(prim)) if is_instancer else (lambda: reader.surface(prim))
+    return _errors(stage, call, every=False)
+
+
+def _light(prim) -> list:
+    if not (prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase)):
+        return []
+    if _pruned(prim) or _hidden(prim):
+        return []
+    stage = prim.GetStage()
+    if not (prim.IsA(UsdLux.SphereLight) or prim.IsA(UsdLux.DistantLight)):
+        return [_error(stage, "warning", str(prim.GetPath()), None,
+                       f"{prim.GetTypeName()} is not supported (SphereLight, DistantLight); ignored",
+                       "UnsupportedPrim")]
+    from .reader import _StageReader
+
+    return _errors(stage, lambda: _StageReader(stage, Where(_file_of(stage)))._light(prim))
+
+
+_BODY_ATTRIBUTES = ("spacetime:fourVelocity", "spacetime:lifetime", "spacetime:referenceTime",
+                    "spacetime:lorentzDecoupled")
+
+
+def _camera_frames(stage, prim, limit: int = 64) -> list[float]:
+    """The start and end time codes (0 without a range) and the camera's own time samples."""
+    if stage.HasAuthoredTimeCodeRange():
+        frames = {float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode())}
+    else:
+        frames = {0.0}
+    samples = sorted({float(t) for attr in prim.GetAttributes() for t in attr.GetTimeSamples()})
+    if len(samples) > limit:
+        step = len(samples) / limit
+        samples = [samples[int(i * step)] for i in range(limit)]
+    return sorted(frames.union(samples))
+
+
+def _stage(stage) -> list:
+    from .products import read_products
+    from .reader import _StageReader
+
+    file = _file_of(stage)
+    where = Where(file)
+    cameras, settings_prims = [], []
+    it = iter(Usd.PrimRange(stage.GetPseudoRoot(), PREDICATE))
+    for prim in it:
+        if prim.IsA(UsdGeom.Camera):
+            cameras.append(str(prim.GetPath()))
+        elif prim.IsA(UsdRender.Settings):
+            settings_prims.append(prim)
+            it.PruneChildren()
+        elif prim.IsA(UsdGeom.PointInstancer):
+            it.PruneChildren()
+    errors = []
+    if not cameras:
+        errors.append(_error(stage, "warning", None, None, "the stage has no camera (UsdGeom.Camera): it cannot be "
+                             "rendered on its own (as a layer to reference it is fine)", "NoCamera"))
+    reader = _StageReader(stage, where)
+    reader.settings_prims = settings_prims
+    chosen = []
+
+    def settings():  # as _StageReader.read does
+        prim = reader._settings_prim()
+        chosen.append(reader._render_settings(prim))
+        if prim is not None:
+            read_products(where, stage, prim, reader._resolution)
+
+    errors += _errors(stage, settings)
+    default = (chosen[0].camera if chosen else None) or (cameras[0] if cameras else None)
+    evaluate = CameraEvaluator(stage, where, tuple(cameras), default)
+    seen = set()
+    for path in cameras:
+        static = {(path, name) for name in _BODY_ATTRIBUTES}  # reported by warpSt:SpacetimeBody
+        for frame in _camera_frames(stage, stage.GetPrimAtPath(path)):
+            for prim, attribute, problem in _every_problem(lambda: evaluate(path, frame), file, masked=static):
+                if (prim, attribute, problem) not in seen:
+                    seen.add((prim, attribute, problem))
+                    errors.append(_error(stage, "error", prim, attribute, f"{problem} (time code {frame:g})"))
+    return errors
+
+
+_VALIDATORS = {
+    "warpSt:SpacetimeBody": ("prim", _spacetime_body,
+                             "SpacetimeBodyAPI values are valid (SPEC §2) and the body has geometry."),
+    "warpSt:Geometry": ("prim", _geometry, "Mesh, Sphere, Cube and PointInstancer data can be rendered; "
+                                           "other gprims are reported as ignored."),
+    "warpSt:Light": ("prim", _light, "SphereLight and DistantLight values are valid; other lights are ignored."),
+    "warpSt:Stage": ("stage", _stage, "The stage has a camera; render settings and cameras (at the stage's "
+                                      "time codes) are valid."),
+}
+
+
+def register() -> None:
+    """Register warp_st's validators with ``UsdValidation.ValidationRegistry`` (once)."""
+    registry = UsdValidation.ValidationRegistry()
+    with _lock:
+        for name, (kind, fn, doc) in _VALIDATORS.items():
+            if registry.HasValidator(name):
+                continue
+            metadata = UsdValidation.ValidatorMetadata(name=name, doc=doc, keywords=[KEYWORD])
+            if kind == "prim":
+                registry.RegisterPrimValidator(metadata, _guarded(name, fn))
+            else:
+                registry.RegisterStageValidator(metadata, _guarded(name, fn))
+
+
+# --- running them ----------------------------------------------------------------------------
+
+
+def _location(site) -> tuple[str | None, str | None]:
+    if site.IsProperty():
+        path = site.GetProperty().GetPath()
+    elif site.IsPrim():
+        path = site.GetPrim().GetPath()
+    elif site.GetPropertySpec():
+        path = site.GetPropertySpec().path
+    elif site.GetPrimSpec():
+        path = site.GetPrimSpec().path
+    else:
+        return None, None
+    if path.IsPropertyPath():
+        return str(path.GetPrimPath()), path.name
+    return (None if path == Sdf.Path.absoluteRootPath else str(path)), None
+
+
+def _problems(errors, file: str) -> list[Problem]:
+    out = []
+    for error in errors:
+        if error.HasNoError():
+            continue
+        validator = error.GetValidator()
+        name = validator.GetMetadata().name if validator else ""
+        severity, only = BUILTIN.get(name, (None, None))
+        if only is not None and error.GetName() not in only:
+            continue
+        severity = severity or _SEVERITY.get(error.GetType(), "error")
+        sites = error.GetSites()
+        prim, attribute = _location(sites[0]) if sites else (None, None)
+        out.append(Problem(severity, file, prim, attribute, " ".join(error.GetMessage().split()), name))
+    return out
+
+
+def _order(stage) -> dict[str, int]:
+    return {str(p.GetPath()): i for i, p in enumerate(Usd.PrimRange(stage.GetPseudoRoot(), PREDICATE))}
+
+
+def validate_stage(stage: Usd.Stage, file: str, *, no_references: bool = False):
+    """(problems, scene): every problem of ``stage`` in stage order (duplicates dropped),
+    and the :class:`~warp_st.scene.Scene` the reader makes of it (None when it cannot).
+
+    ``file`` names the stage in the problems. When the validators find no error the
+    reader itself reads the stage too, and a SceneError it raises is a problem, so a
+    stage without errors always loads.
+    """
+    from .reader import load_scene
+
+    register()
+    registry = UsdValidation.ValidationRegistry()
+    validators = [registry.GetOrLoadValidatorByName(n) for n in (*_VALIDATORS, *BUILTIN)]
+    with _lock, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _active.update(stage=stage, file=file, failures=[])
+        try:
+            errors = UsdValidation.ValidationContext([v for v in validators if v]).Validate(stage, PREDICATE)
+            failures = list(_active["failures"])
+        finally:
+            _active.clear()
+    if failures:
+        raise failures[0]
+    problems = _problems(errors, file)
+    for w in caught:  # the reader's own warnings (e.g. an unsupported gprim in a prototype)
+        text = " ".join(str(w.message).split())
+        if not text.startswith(file + ": "):
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            continue
+        prim, attribute, message = _parse(text, file)
+        problems.append(Problem("warning", file, prim, attribute, message, "warpSt:Reader"))
+    scene = None
+    if not any(p.severity == "error" for p in problems):
+        try:
+            with warnings.catch_warnings():  # unsupported prims are already warnings above
+                warnings.simplefilter("ignore")
+                scene = load_scene(stage, no_references=no_references)
+        except SceneError as exc:  # it names the stage by its real path
+            root = stage.GetRootLayer()
+            prim, attribute, message = _parse(str(exc), file, root.realPath, root.identifier)
+            problems.append(Problem("error", file, prim, attribute, message, "warpSt:Reader"))
+    order = _order(stage)
+    unique = {(p.severity, p.prim, p.attribute, p.message): p for p in reversed(problems)}  # the first of each
+    problems = sorted(unique.values(), key=lambda p: (order.get(p.prim or "/", -1), p.severity != "error",
+                                                      p.attribute or "", p.message))
+    return problems, scene
+
+
+def counts(problems) -> dict[str, int]:
+    """{"error": n, "warning": n, "info": n}."""
+    out = {"error": 0, "warning": 0, "info": 0}
+    for p in problems:
+        out[p.severity] = out.get(p.severity, 0) + 1
+    return out
