@@ -530,7 +530,8 @@ def build_report(results, machine, args):
         f"({args.sphere_segments} segments) at z = -30, at rest / coupled up to 0.9c / decoupled up to 0.9c, unlit; "
         f"moving cubes = {args.cubes} cubes, 20% at rest, others up to 0.95c in random directions "
         "(1/3 decoupled), 1 distant light. Static versions: the same bodies at rest at their authored positions.",
-        "- bytes/tet: trace arrays = vertices + inline tetrahedron events + tets + tet_tri + tri_body + node_lo/hi/first/count as uploaded; "
+        "- bytes/tet: per tetrahedron of the database (3 per prism); trace arrays = vertices + inline primitive events + "
+        "primitive vertex indices + primitive triangles + tri_body + node_lo/hi/first/count as uploaded; "
         "all = plus the shading arrays (normals, materials, bodies).",
     ]
     for n in names:

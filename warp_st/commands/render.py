@@ -5,6 +5,7 @@ import json
 import os
 import shlex
 import sys
+import time
 import traceback
 from pathlib import Path
 
@@ -12,7 +13,7 @@ from ..frames import finite_frame, frame_label, frames_label, parse_frames
 from ..farm import LOCAL_FRAMES, MIN_CORES
 from .common import (PROG, UsageError, error, interrupted_status, interruption, non_negative_float,
                      non_negative_int, positive_int, size_arg)
-from ..outputs import FrameJob, OutputPlanError, plan_pattern, plan_products, single_view
+from ..outputs import FrameJob, OutputPlanError, job_complete, plan_pattern, plan_products, single_view
 from .load import file_hash, load
 
 
@@ -134,20 +135,23 @@ def run(args, argv: list[str]) -> int:
         metadata["options"] = options_text
 
     console = _Console(args)
+    started = time.time()
     try:
         result = render_sequence(
             StageFile(scene_path, no_references=args.no_references, sha256=stage_hash, scene=scene),
             output=jobs, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
             progress=not args.quiet, log=console, metadata=metadata, **options)
     except KeyboardInterrupt as exc:
+        complete = _complete(console, jobs, started)
         print(
-            f"{PROG}: {interruption(exc)}; frames complete: {frames_label(console.complete)} "
-            f"({len(console.complete)} of {len(frames)}); rerun with --resume to continue",
+            f"{PROG}: {interruption(exc)}; frames complete: {frames_label(complete)} "
+            f"({len(complete)} of {len(frames)}); rerun with --resume to continue",
             file=sys.stderr,
         )
         return interrupted_status(exc)
     except OSError as exc:  # e.g. disk full: the frames written so far are complete
-        error(f"{exc}; frames complete: {frames_label(console.complete)} ({len(console.complete)} of "
+        complete = _complete(console, jobs, started)
+        error(f"{exc}; frames complete: {frames_label(complete)} ({len(complete)} of "
               f"{len(frames)}); rerun with --resume to continue")
         if os.environ.get("WARP_ST_DEBUG"):
             traceback.print_exc()
@@ -157,6 +161,21 @@ def run(args, argv: list[str]) -> int:
     if not result.rendered and console.human:
         print(f"all {len(frames)} frame(s) already complete")
     return 0
+
+
+def _complete(console, jobs, since: float) -> list[float]:
+    """Frames reported complete, plus those whose files this run finished without a record
+    yet (a signal can land between a frame's rename and its record): complete EXRs
+    written since the run started."""
+    done = set(console.complete)
+    for job in jobs:
+        if job.frame not in done and job_complete(job):
+            try:
+                if all(os.stat(o.path).st_mtime >= since for o in job.outputs):
+                    done.add(job.frame)
+            except OSError:
+                pass
+    return sorted(done)
 
 
 class _Console:
