@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .extrude import SWEEP_FRACTION
+from .extrude import MIN_SWEEP_FRACTION, SWEEP_FRACTION, TRIANGLE_SWEEP
 from .scene import SceneError  # numpy only: no warp / pxr import until a suite runs
 
 __all__ = [
@@ -654,13 +654,16 @@ class Bench:
         a = self.args
         w, h = a.width, a.height
         if self.quick:
-            grids, cubes = [1, 3], [8, 27]
+            grids, cubes, segments = [1, 3], [8, 27], [8, 16]
         else:
-            grids, cubes = [1, 2, 3, 6, 11, 20], [3, 27, 125, 343, 1000]
+            grids, cubes, segments = [1, 2, 3, 6, 11, 20], [3, 27, 125, 343, 1000], [8, 16, 32, 64, 128, 256]
         rows = []
         for n in grids:
             scene = sphere_grid_scene(24, n)
             rows.append(self._scale_row("sphere grid", f"{n}x{n} spheres, 24 seg.", scene, w, h))
+        for seg in segments:  # the same image, finer and finer tessellation
+            scene = sphere_grid_scene(seg, 3)
+            rows.append(self._scale_row("tessellated 3x3 grid", f"{seg} seg.", scene, w, h))
         for n in cubes:
             scene = cube_cloud_scene(n)
             rows.append(self._scale_row("moving cubes", f"{n} cubes", scene, w, h))
@@ -782,7 +785,7 @@ class Bench:
                        one.t_c, [0.125, 1.0] if self.quick else [1 / 32, 1 / 16, 0.125, 0.25, 0.5, 1.0]))
         rows = []
         for label, scene, fr, render_at, factors in series:
-            for fac in factors:
+            for fac in [*factors, None]:  # None: the default rule (extrude.segment_sweep)
                 with sweep_factor(fac):
                     r, ctor = _build(scene, frames=fr, width=w, height=h)
                 _img, kern, _full, visits = time_render(r, render_at, self.runs)
@@ -790,7 +793,7 @@ class Bench:
                 rows.append({"series": label, "factor": fac, "tetrahedra": r.stats.tetrahedra,
                              "extrude_s": r.stats.extrude_seconds, "bvh_s": r.stats.bvh_seconds, "constructor_s": ctor,
                              "kernel_s": kern, "visits": visits, **box})
-                self.log(f"  [slices] {label.split(',')[0]} x{fac:g}: {r.stats.tetrahedra:,} tets, "
+                self.log(f"  [slices] {label.split(',')[0]} {_factor(fac)}: {r.stats.tetrahedra:,} tets, "
                          f"box/size {box['box_over_size']:.2f}, {visits:.1f} visits/ray, {1e3 * kern['median']:.1f} ms")
         assert ex.body_slices is _ORIGINAL_BODY_SLICES[0]
         return {"width": w, "height": h, "rows": rows}
@@ -917,12 +920,19 @@ class Bench:
 _ORIGINAL_BODY_SLICES = []
 
 
+def _factor(fac) -> str:
+    return "default rule" if fac is None else f"x{fac:g}"
+
+
 @contextlib.contextmanager
-def sweep_factor(factor: float):
+def sweep_factor(factor: float | None):
     """Temporarily make ``warp_st.extrude.body_slices`` cut segments in which a body sweeps
-    ``factor`` x its own size (the default is ``extrude.SWEEP_FRACTION``)."""
+    ``factor`` x its own size (None: the default rule, ``extrude.segment_sweep``)."""
     import warp_st.extrude as ex
 
+    if factor is None:
+        yield
+        return
     if not _ORIGINAL_BODY_SLICES:
         _ORIGINAL_BODY_SLICES.append(ex.body_slices)
     original = _ORIGINAL_BODY_SLICES[0]
@@ -1043,7 +1053,8 @@ def report_sections(results, images_rel):
         L += [f"## Scaling: time against tetrahedra ({s['width']}x{s['height']})", "",
               "Extrusion, 4D SAH BVH build and render time (kernel, median of the runs) against the database size. "
               "Sphere grid: n x n UV spheres of 24 segments covering the same part of the image, mixed velocities up "
-              "to 0.9c, unlit. Moving cubes: N cubes up to 0.95c in random directions, one distant light (shadow "
+              "to 0.9c, unlit (more, smaller bodies: the image itself changes). Tessellated 3x3 grid: the same 3 x 3 "
+              "spheres at 8 to 256 segments (the same image, more triangles). Moving cubes: N cubes up to 0.95c in random directions, one distant light (shadow "
               "rays, and windows widened for them).", ""]
         L += _table(["scene", "tetrahedra", "BVH nodes", "extrude s", "BVH build s", "render ms", "visits/ray"],
                     [[f"{r['family']}: {r['label']}", f"{r['tetrahedra']:,}", f"{r['bvh_nodes']:,}",
@@ -1095,13 +1106,14 @@ def report_sections(results, images_rel):
     if "slices" in results:
         s = results["slices"]
         L += [f"## Time-segment length of extrusions ({s['width']}x{s['height']})", "",
-              f"Factor {SWEEP_FRACTION:g} is the default "
-              "(`extrude.body_slices`: a body sweeps that fraction of its size per time segment); "
-              "factor f cuts segments in which it sweeps f x its size. box/size: mean largest spatial side of a "
-              "tetrahedron's 4D box over its triangle's size; box Δt: mean time extent.", ""]
+              "Factor f cuts segments in which a body sweeps f x its size; \"default rule\" is what the renderer "
+              f"does (`extrude.segment_sweep`: {SWEEP_FRACTION:g} x its size, shortened for finely tessellated "
+              f"bodies to {TRIANGLE_SWEEP:g} x the median triangle size, but not below {MIN_SWEEP_FRACTION:g} x its "
+              "size). box/size: mean largest spatial side of a primitive's 4D box over its triangle's size; box "
+              "Δt: mean time extent.", ""]
         L += _table(["scene", "factor", "tetrahedra", "box/size", "box Δt", "extrude s", "BVH s", "render ms",
                      "visits/ray"],
-                    [[r["series"], f"{r['factor']:g}x", f"{r['tetrahedra']:,}", f"{r['box_over_size']:.2f}",
+                    [[r["series"], _factor(r["factor"]), f"{r['tetrahedra']:,}", f"{r['box_over_size']:.2f}",
                       f"{r['box_dt']:.2f}", f"{r['extrude_s']:.3f}", f"{r['bvh_s']:.3f}", _ms_range(r["kernel_s"]),
                       f"{r['visits']:.1f}"] for r in s["rows"]])
         L += [""]
@@ -1170,7 +1182,7 @@ def summary_rows(results):
     """The one table printed on stdout: the headline number of each suite."""
     rows = []
     if "scaling" in results:
-        for fam in ("sphere grid", "moving cubes"):
+        for fam in ("sphere grid", "tessellated 3x3 grid", "moving cubes"):
             rs = [r for r in results["scaling"]["rows"] if r["family"] == fam]
             if rs:
                 a, b = rs[0], rs[-1]
@@ -1199,10 +1211,11 @@ def summary_rows(results):
         for series in dict.fromkeys(r["series"] for r in results["slices"]["rows"]):
             rs = [r for r in results["slices"]["rows"] if r["series"] == series]
             best = min(rs, key=lambda r: r["kernel_s"]["median"])
-            one = next((r for r in rs if r["factor"] == 1.0), rs[0])
-            rows.append([f"time segments: {series.split(',')[0]}", f"factors {rs[0]['factor']:g}–{rs[-1]['factor']:g}",
-                         f"fastest render at {best['factor']:g}x ({_ms(best['kernel_s'])} ms, {best['tetrahedra']:,} "
-                         f"tets); default 1x {_ms(one['kernel_s'])} ms, {one['tetrahedra']:,} tets"])
+            default = next(r for r in rs if r["factor"] is None)
+            fixed = [r["factor"] for r in rs if r["factor"] is not None]
+            rows.append([f"time segments: {series.split(',')[0]}", f"factors {fixed[0]:g}–{fixed[-1]:g} and the default rule",
+                         f"fastest render at {_factor(best['factor'])} ({_ms(best['kernel_s'])} ms, {best['tetrahedra']:,} "
+                         f"tets); default rule {_ms(default['kernel_s'])} ms, {default['tetrahedra']:,} tets"])
     if "needs" in results:
         s = results["needs"]
         lit = [r for r in s["lights"] if "kernel_s_same_db_unlit" in r]
@@ -1243,7 +1256,7 @@ def make_plots(results, images: Path, log) -> list[Path]:
     if "scaling" in results:
         s = results["scaling"]
         fig, ax = plt.subplots(figsize=(7, 4.8))
-        for fam, marker, ls in (("sphere grid", "o", "-"), ("moving cubes", "s", "--")):
+        for fam, marker, ls in (("sphere grid", "o", "-"), ("tessellated 3x3 grid", "^", ":"), ("moving cubes", "s", "--")):
             rs = sorted((r for r in s["rows"] if r["family"] == fam), key=lambda r: r["tetrahedra"])
             if not rs:
                 continue
@@ -1301,15 +1314,18 @@ def make_plots(results, images: Path, log) -> list[Path]:
                 ax.legend(fontsize=6)
             else:
                 for k, series in enumerate(dict.fromkeys(r["series"] for r in s["rows"])):
-                    rs = [r for r in s["rows"] if r["series"] == series]
+                    rs = [r for r in s["rows"] if r["series"] == series and r["factor"] is not None]
                     x = [r["factor"] for r in rs]
                     short = series.split(",")[0].split(" (")[0]
                     ax.loglog(x, [1e3 * r["kernel_s"]["median"] for r in rs], "o-", color=f"C{k}",
                               label=f"{short}: render ms")
                     ax.loglog(x, [r["tetrahedra"] / 1e3 for r in rs], "s:", color=f"C{k}",
                               label=f"{short}: k tetrahedra")
-                ax.axvline(1.0, color="grey", lw=0.8, ls="--")
-                ax.set_xlabel("sweep per time segment (x body size; 1 = default)")
+                    default = next((r for r in s["rows"] if r["series"] == series and r["factor"] is None), None)
+                    if default is not None:  # the default rule, drawn at no factor: a horizontal mark
+                        ax.axhline(1e3 * default["kernel_s"]["median"], color=f"C{k}", lw=0.8, ls="-.",
+                                   label=f"{short}: default rule, render ms")
+                ax.set_xlabel("sweep per time segment (x body size)")
                 ax.set_ylabel("render ms / thousand tetrahedra")
                 ax.set_title("time-segment length")
                 ax.legend(fontsize=6)
