@@ -526,3 +526,32 @@ warp_st.load({str(stage)!r}, no_references=True)
                           text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert not marker.exists()
+
+
+def test_time_segments_fall_back_to_the_coarser_rule_when_memory_is_short():
+    """Finely tessellated moving bodies get short time segments (extrude.segment_sweep);
+    when that database would not fit under max_memory but the coarser per-body rule
+    does, the renderer uses the coarser one instead of refusing, and the image is the
+    same (both are exact extrusions of the same surfaces: only box tightness differs)."""
+    from warp_st.bench import bench_camera, sphere_grid_scene
+    from warp_st.limits import check_resources
+    from warp_st.visibility import visibility_windows
+
+    scene = sphere_grid_scene(96, 2)
+    fine_r = Renderer(scene, frames=[0.0], width=48, height=27)
+    assert fine_r.fine_segments
+    cams = [bench_camera()]
+    windows = visibility_windows(scene, cams, infinite=False, max_depth=fine_r.max_depth)
+    sizes = {fine: check_resources(scene, windows, width=48, height=27, max_depth=fine_r.max_depth, fine=fine)
+             for fine in (True, False)}
+    assert sizes[False] < sizes[True]
+    coarse_r = Renderer(scene, frames=[0.0], width=48, height=27, max_memory=(sizes[False] + sizes[True]) // 2)
+    assert not coarse_r.fine_segments
+    assert coarse_r.stats.tetrahedra < fine_r.stats.tetrahedra
+    a, b = fine_r.render(0.0), coarse_r.render(0.0)
+    assert (a.object_id > 0).mean() > 0.1
+    assert np.array_equal(a.object_id, b.object_id)
+    hit = a.object_id > 0
+    np.testing.assert_allclose(a.depth[hit], b.depth[hit], rtol=1e-5)  # float32 rounding of two extrusions
+    with pytest.raises(SceneError, match="memory limit"):
+        Renderer(scene, frames=[0.0], width=48, height=27, max_memory=sizes[False] // 2)

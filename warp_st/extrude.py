@@ -128,15 +128,20 @@ MIN_SWEEP_FRACTION = 0.125
 
 
 def body_slices(
-    body: Body, window: tuple[float, float], *, max_segments: int = 4096, fraction: float | None = None
+    body: Body, window: tuple[float, float], *, max_segments: int = 4096, fraction: float | None = None,
+    fine: bool = True,
 ) -> np.ndarray:
     """Slice times covering ``window`` for one body, ascending, at least two.
 
     The window is split into K segments so that the body sweeps at most
-    ``segment_sweep(body)`` per segment (``fraction`` x its size when given): the 4D
-    boxes of its primitives then stay within a triangle or two of their triangle.
+    ``segment_sweep(body)`` per segment (``fraction`` x its size when given; with
+    ``fine`` False, SWEEP_FRACTION x its size: the coarser rule the renderer falls
+    back to when the finer one would not fit in memory): the 4D boxes of its
+    primitives then stay within a triangle or two of their triangle.
     """
     t0, t1 = float(window[0]), float(window[1])
+    if fraction is None and not fine:
+        fraction = SWEEP_FRACTION
     size = segment_sweep(body) if fraction is None else fraction * _body_size(body)
     sweep = body.speed * (t1 - t0)
     k = 1 if sweep <= size else int(min(np.ceil(sweep / size), max_segments))
@@ -174,12 +179,13 @@ def _body_size(body: Body) -> float:
     return max(extent, 1e-6)
 
 
-def extrude_scene(scene: Scene, windows: list) -> SpacetimeMesh:
+def extrude_scene(scene: Scene, windows: list, *, fine: bool = True) -> SpacetimeMesh:
     """Extrude every body of ``scene`` over its visible time window.
 
     windows[i] is the lab-time window of body i that the frames can see (already
     intersected with its lifetime): an interval (lo, hi), a tuple of disjoint
     intervals (each extruded on its own), or None when the body is never visible.
+    fine: time segments by ``segment_sweep`` (default) or by SWEEP_FRACTION of the body.
     """
     materials: list = []
     mat_index: dict = {}
@@ -227,7 +233,7 @@ def extrude_scene(scene: Scene, windows: list) -> SpacetimeMesh:
             tri_material.append(np.full(n_tri, mat_index[key], dtype=np.int32))
 
             for part in parts:  # each interval of the window: its own slices
-                slices = body_slices(body, part)
+                slices = body_slices(body, part, fine=fine)
                 ev = _slice_events(local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
                 verts.append(ev.reshape(-1, 4))
                 vnorms.append(np.broadcast_to(nrm, (len(slices), n_pts, 3)).reshape(-1, 3))

@@ -89,7 +89,11 @@ def estimate_bytes(tetrahedra: int, vertices: int, pixels: int = 0) -> int:
     return int(tetrahedra * BYTES_PER_TET + vertices * BYTES_PER_VERTEX + pixels * BYTES_PER_PIXEL)
 
 
-def count_database(scene: Scene, windows) -> tuple[int, int, list[int]]:
+class MemoryRefusal(SceneError):
+    """A render whose estimated memory exceeds the limit (bad input: exit 2)."""
+
+
+def count_database(scene: Scene, windows, *, fine: bool = True) -> tuple[int, int, list[int]]:
     """(tetrahedra, vertices, tetrahedra per body) the extrusion of ``scene`` over ``windows`` makes.
 
     Exactly what :func:`warp_st.extrude.extrude_scene` allocates (3 tetrahedra per
@@ -109,7 +113,7 @@ def count_database(scene: Scene, windows) -> tuple[int, int, list[int]]:
                     scene.source, body.prim_path, None,
                     f"its visible time window {_window_text(window)} is not finite (positions, speeds or times too large)",
                 )
-            segments = sum(len(body_slices(body, part)) - 1 for part in parts)
+            segments = sum(len(body_slices(body, part, fine=fine)) - 1 for part in parts)
             for surf in body.surfaces:
                 tris = np.asarray(surf.triangles).reshape(-1, 3)
                 n_tri = int(((tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])).sum())
@@ -226,10 +230,11 @@ def _check_windows(scene: Scene, windows, max_depth: int) -> None:
 
 
 def check_resources(scene: Scene, windows, *, width: int, height: int, samples: int = 1, max_depth: int = 0,
-                    max_memory: int | None = None) -> int:
-    """Refuse (SceneError) a render that would exceed ``max_memory`` or the kernels' ranges.
-
-    Called after the visibility windows and before the extrusion. Returns the estimate.
+                    max_memory: int | None = None, fine: bool = True) -> int:
+    """Refuse (SceneError; MemoryRefusal over ``max_memory``) a render that would exceed
+    ``max_memory`` or the kernels' ranges. ``fine``: the time-segment rule
+    (``extrude.body_slices``). Called after the visibility windows and before the
+    extrusion. Returns the estimate.
     """
     src = scene.source
     if samples > MAX_SAMPLES:
@@ -240,14 +245,14 @@ def check_resources(scene: Scene, windows, *, width: int, height: int, samples: 
     if pixels > MAX_PIXELS:
         raise SceneError.at(src, None, "resolution", f"{width} x {height} is more than {MAX_PIXELS} pixels")
     _check_windows(scene, windows, max_depth)
-    tets, verts, per_body = count_database(scene, windows)
+    tets, verts, per_body = count_database(scene, windows, fine=fine)
     estimate = estimate_bytes(tets, verts, pixels)
     if max_memory is not None and estimate > max_memory:
         biggest = ""
         if per_body and max(per_body) > 0:
             i = int(np.argmax(per_body))
             biggest = f"; the largest body is {scene.bodies[i].prim_path} with {per_body[i]:,} tetrahedra"
-        raise SceneError.at(
+        raise MemoryRefusal.at(
             src, None, None,
             f"the render needs about {format_size(estimate)} ({tets:,} tetrahedra, {verts:,} vertices, "
             f"{pixels:,} pixels), more than the memory limit of {format_size(max_memory)}{biggest}; "

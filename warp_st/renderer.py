@@ -20,7 +20,7 @@ from .bvh import FlatBVH
 from .conventions import LightSpeed, Precision
 from .extrude import SpacetimeMesh, adapt_sphere_tessellation, extrude_scene
 from .film import Image, quantize_time
-from .limits import check_resources, resolve_max_memory
+from .limits import MemoryRefusal, check_resources, resolve_max_memory
 from .scene import CameraState, Scene, SceneError
 from .visibility import union, visibility_windows
 
@@ -225,11 +225,18 @@ class Renderer:
             w = visibility_windows(scene, cams, infinite=mode == LightSpeed.INFINITE, max_depth=self.max_depth,
                                    shutter=shutter)
             windows = w if windows is None else [union(a, b) for a, b in zip(windows, w)]
-        # Refuse before allocating: the tetrahedron count is known from the windows.
-        self.memory_estimate = check_resources(scene, windows, width=self.width, height=self.height,
-                                               samples=self.samples, max_depth=self.max_depth,
-                                               max_memory=self.max_memory)
-        mesh, bvh = build_database(scene, windows, self.primitive)
+        # Refuse before allocating: the tetrahedron count is known from the windows. Time
+        # segments follow finely tessellated bodies' triangles unless that does not fit;
+        # then they fall back to the coarser rule (faster to build, slower to trace).
+        limits = dict(width=self.width, height=self.height, samples=self.samples, max_depth=self.max_depth,
+                      max_memory=self.max_memory)
+        try:
+            self.memory_estimate = check_resources(scene, windows, **limits)
+            self.fine_segments = True
+        except MemoryRefusal:
+            self.memory_estimate = check_resources(scene, windows, fine=False, **limits)
+            self.fine_segments = False
+        mesh, bvh = build_database(scene, windows, self.primitive, fine=self.fine_segments)
         t2 = time.perf_counter()
         t1 = t2 - bvh.build_seconds
         tc = time.perf_counter()
@@ -252,6 +259,7 @@ class Renderer:
         return {
             "tetrahedra": s.tetrahedra,
             "primitive": self.primitive,
+            "time_segments": "per triangle" if self.fine_segments else "per body (memory)",
             "bvh_nodes": s.bvh_nodes,
             "extrude_seconds": round(s.extrude_seconds, 4),
             "bvh_seconds": round(s.bvh_seconds, 4),
@@ -368,14 +376,16 @@ class Renderer:
         )
 
 
-def build_database(scene: Scene, windows: list, primitive: str = "prism") -> tuple[SpacetimeMesh, FlatBVH]:
+def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fine: bool = True
+                   ) -> tuple[SpacetimeMesh, FlatBVH]:
     """Extrude ``scene`` over per-body time ``windows`` and build the 4D BVH.
 
     ``primitive``: what the BVH's leaves hold and the kernels intersect: "prism" (one
     comoving triangle test per extruded triangle and segment; every body moves
     uniformly, so this is exact) or "tet" (three tetrahedra per prism, the general
     path). The returned mesh stores that primitive array in BVH leaf order (a leaf is
-    a contiguous range), so primitive indices refer to that order.
+    a contiguous range), so primitive indices refer to that order. ``fine``: the
+    time-segment rule (``extrude.body_slices``).
     """
     import dataclasses
 
@@ -383,7 +393,7 @@ def build_database(scene: Scene, windows: list, primitive: str = "prism") -> tup
 
     if primitive not in PRIMITIVES:
         raise ValueError(f"primitive must be one of {PRIMITIVES}, got {primitive!r}")
-    mesh = dataclasses.replace(extrude_scene(scene, windows), primitive=primitive)
+    mesh = dataclasses.replace(extrude_scene(scene, windows, fine=fine), primitive=primitive)
     lo, hi = mesh.prim_boxes() if mesh.prim_count else (np.zeros((0, 4)), np.zeros((0, 4)))
     bvh = build_bvh(lo, hi, primitive=primitive)
     if mesh.prim_count == 0:
