@@ -937,7 +937,7 @@ def sweep_factor(factor: float | None):
         _ORIGINAL_BODY_SLICES.append(ex.body_slices)
     original = _ORIGINAL_BODY_SLICES[0]
 
-    def body_slices(body, window, *, max_segments=4096, fraction=None):
+    def body_slices(body, window, *, max_segments=4096, fraction=None, fine=True):
         return original(body, window, max_segments=max_segments, fraction=factor)
 
     ex.body_slices = body_slices
