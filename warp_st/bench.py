@@ -867,6 +867,7 @@ class Bench:
             frames = [float(f) for f in frames]
             label = f"frame {_t(frames[0])}" if len(frames) == 1 else f"{_t(frames[0])}–{_t(frames[-1])} ({len(frames)} frames)"
             row = {"span": label, "lights": lights, "frames": len(frames)}
+            fine = True
             try:
                 r, ctor = _build(sc, frames=frames, width=16, height=9)
             except SceneError as exc:  # the memory guard refused: report the count it computed
@@ -874,7 +875,9 @@ class Bench:
                 row.update(tetrahedra=int(count.group(1).replace(",", "")) if count else None, refused=str(exc),
                            constructor_s=None, per_body={})
             else:
-                row.update(tetrahedra=r.stats.tetrahedra, constructor_s=ctor, per_body=_tets_per_body(r))
+                fine = r.fine_segments
+                row.update(tetrahedra=r.stats.tetrahedra, constructor_s=ctor, per_body=_tets_per_body(r),
+                           time_segments="per triangle" if fine else "per body (memory)")
             if len(frames) > 1:  # the same windows filled in between (one interval per body)
                 from .limits import count_database
                 from .renderer import DEFAULT_MAX_DEPTH
@@ -882,7 +885,7 @@ class Bench:
 
                 cams = [sc.camera_state(sc.default_camera, f) for f in frames]
                 wins = visibility_windows(sc, cams, infinite=False, max_depth=DEFAULT_MAX_DEPTH)
-                row["span_tetrahedra"] = count_database(sc, [span(w) for w in wins])[0]
+                row["span_tetrahedra"] = count_database(sc, [span(w) for w in wins], fine=fine)[0]
             rows.append(row)
             self.log(f"  [needs] parade {lights} {label}: {row['tetrahedra']:,} tets"
                      + (" (refused)" if "refused" in row else ""))
@@ -1142,13 +1145,15 @@ def report_sections(results, images_rel):
               "what shadow rays from any hit event can reach) can see. \"unlit\": the same bodies with the lights "
               "removed. Per-body columns: tetrahedra (the floor and posts are at rest: one segment each). "
               "\"one interval\": what the same windows would extrude with the gaps between groups of frames "
-              "filled in (one interval per body, as before 0.2.0).", ""]
+              "filled in (one interval per body, as before 0.2.0), with the same time-segment rule; \"segments\": "
+              "per triangle (extrude.segment_sweep) or per body (the coarser rule the renderer falls back to when the "
+              "finer one would exceed the memory limit).", ""]
         bodies = s["parade_bodies"]
         shown = [b for b in bodies if "Posts" not in b]
-        L += _table(["frames", "lights", "tetrahedra", "one interval", "build s"]
+        L += _table(["frames", "lights", "tetrahedra", "one interval", "segments", "build s"]
                     + [b.rsplit("/", 2)[-2] + "/" + b.rsplit("/", 1)[-1] for b in shown],
                     [[r["span"], r["lights"], f"{r['tetrahedra']:,}" if r["tetrahedra"] else "?",
-                      f"{r['span_tetrahedra']:,}" if "span_tetrahedra" in r else "",
+                      f"{r['span_tetrahedra']:,}" if "span_tetrahedra" in r else "", r.get("time_segments", "–"),
                       f"{r['constructor_s']:.2f}" if r["constructor_s"] is not None else "refused by the memory guard"]
                      + [f"{r['per_body'].get(b, 0):,}" if r["per_body"] else "–" for b in shown]
                      for r in s["clipping"]])
