@@ -187,7 +187,7 @@ def _guarded(name: str, fn):
     """``fn`` with any unexpected exception recorded for :func:`validate_stage` to raise
     (exit 1), or reported as an error when run from elsewhere."""
 
-    def task(obj, *time_range):
+    def task(obj, *_time_range):  # USD passes the time range; the checks read every time themselves
         try:
             return fn(obj)
         except Exception as exc:  # noqa: BLE001 - a bug must not vanish inside USD's traversal
