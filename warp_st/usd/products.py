@@ -58,7 +58,8 @@ def _string(where: Where, prim, name: str) -> str | None:
     if value is None:
         return None
     if not isinstance(value, str):
-        raise where.error(prim, name, f"must be a token or string, not {attr.GetTypeName()}")
+        # (the schema's declared type can hide the authored one: report the value's)
+        raise where.error(prim, name, f"must be a token or string, got {type(value).__name__} {value!r}")
     return value
 
 
