@@ -46,3 +46,22 @@ def test_bench_rejects_unknown_suite(capsys):
     assert cli_main(["bench", "--suites", "nope"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "unknown suite" in err[0]
+
+
+def test_bench_trace_quick_compares_every_tracer(tmp_path, capsys):
+    """``examples/benchmarks/bench_trace.py --quick`` runs end to end: our prism and
+    tetrahedron paths, wp.Mesh (and Embree when ``embreex`` is installed) trace the same
+    static rays, and every tracer agrees with wp.Mesh on hit/miss (the report says OK)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "benchmarks" / "bench_trace.py"
+    spec = importlib.util.spec_from_file_location("bench_trace_smoke", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    out = tmp_path / "trace.md"
+    assert module.main(["--quick", "--runs", "1", "--scenes", "parade,flanges", "--out", str(out)]) == 0
+    text = out.read_text()
+    assert "static ours, prisms Mrays/s 1 thr" in text and "static wp.Mesh Mrays/s 1 thr" in text
+    sanity = [line for line in text.splitlines() if line.startswith("- ") and "hit/miss agree" in line]
+    assert len(sanity) >= 4 and all(line.endswith("OK") for line in sanity), sanity
