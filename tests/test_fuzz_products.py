@@ -11,12 +11,13 @@ relationships to missing or wrong prims, attributes of the wrong type) ends, thr
   written at all;
 
 never another exit status or a traceback. ``validate`` exits 2 exactly when render
-does (a stage it passes renders; one it refuses, render refuses too).
+does (a stage it passes renders; one it refuses, render refuses too), except that only
+render checks that the output folders exist (they depend on where it runs). Budget: 60 cases
+(``WARP_ST_FUZZ_SCALE`` multiplies it, ``WARP_ST_FUZZ_RANDOM=1`` draws new ones).
 """
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import OpenEXR
 from hypothesis import HealthCheck, given, settings
@@ -103,6 +104,7 @@ def _run(capsys, argv):
 
 
 @settings(max_examples=max(1, int(60 * SCALE)), deadline=None, database=None,
+          derandomize=os.environ.get("WARP_ST_FUZZ_RANDOM") is None,  # CI: the same cases every run
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(text=stages())
 def test_products_render_or_name_the_file(tmp_path_factory, capsys, text):
@@ -124,7 +126,8 @@ def test_products_render_or_name_the_file(tmp_path_factory, capsys, text):
         lines = err.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("warp-st: error:") and "shot.usda" in lines[0], err
         assert written == [], written
-        assert v_code == 2, "validate passed a stage that render refuses:\n" + err
+        if "cannot write" not in err:  # the file system at render time is not the stage's fault
+            assert v_code == 2, "validate passed a stage that render refuses:\n" + err
     else:
         assert v_code == 0, v_err
         for path in written:

@@ -380,3 +380,45 @@ def Xform "Other" (prepend apiSchemas = ["SpacetimeBodyAPI"])
     assert proc.returncode == code == 2, proc.stderr
     assert proc.stdout == out
     assert "/Other.spacetime:fourVelocity" in out and "/Other.spacetime:lifetime" in out
+
+
+def test_products_writing_one_file_are_an_error(tmp_path, capsys, monkeypatch):
+    """Two RenderProducts naming the same file at a frame: validate lists it on the second
+    product's productName (render would refuse the stage the same way)."""
+    from warp_st.cli import main as cli
+
+    path = tmp_path / "clash.usda"
+    path.write_text('''#usda 1.0
+(
+    upAxis = "Y"
+)
+def Camera "Cam" {
+}
+def Cube "C" {
+}
+def Scope "Render" {
+    def RenderSettings "Settings" {
+        rel products = [</Render/P0>, </Render/P1>]
+    }
+    def RenderProduct "P0" {
+        token productName = "same.exr"
+        rel orderedVars = [</Render/V>]
+    }
+    def RenderProduct "P1" {
+        token productName = "same.exr"
+        rel orderedVars = [</Render/V>]
+    }
+    def RenderVar "V" {
+        uniform string sourceName = "color"
+        uniform token dataType = "color3f"
+    }
+}
+''')
+    code = cli(["validate", str(path)])
+    out, err = capsys.readouterr()
+    assert code == 2, out + err
+    assert f"ERROR {path}:/Render/P1.productName: 'same.exr' is also the file of /Render/P0" in out, out
+    monkeypatch.chdir(tmp_path)  # product names are relative to the working directory
+    code = cli(["render", str(path), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and "/Render/P1: productName:" in err and not list(tmp_path.glob("*.exr")), err

@@ -97,16 +97,36 @@ def _channels(product: RenderProduct) -> tuple[OutputChannel, ...]:
 
 
 def _check_product_names(scene: Scene, jobs: list[FrameJob]) -> None:
-    """Each product names a distinct file at every frame (else a one-line error naming it)."""
+    """Each product names a distinct, writable file at every frame (else a one-line error
+    naming the stage, the product and productName)."""
+    check_product_clashes(scene.source, scene.products, jobs)
+    from .exr import check_output_path
+
+    for job in jobs:  # unwritable names: name the product that asks for them
+        for product, output in zip(scene.products, job.outputs):
+            try:
+                check_output_path(output.path)
+            except OSError as exc:
+                raise OutputPlanError(str(SceneError.at(scene.source, product.prim_path, "productName",
+                                                        exc.strerror or str(exc)))) from None
+
+
+def product_paths(products, frames) -> list[FrameJob]:
+    """The file each product names at each frame (``#``/``%04d`` expanded), as jobs."""
+    return [FrameJob(f, tuple(Output(Path(expand_output(p.name_at(f), f))) for p in products)) for f in frames]
+
+
+def check_product_clashes(source: str, products, jobs: list[FrameJob]) -> None:
+    """OutputPlanError naming the product when two frames or two products share a file."""
     seen: dict[Path, tuple[RenderProduct, float]] = {}
     for job in jobs:
-        for product, output in zip(scene.products, job.outputs):
+        for product, output in zip(products, job.outputs):
             if output.path in seen:
                 other, frame = seen[output.path]
                 clash = (f"the frames {frame_label(frame)} and {frame_label(job.frame)}" if other is product
-                         else f"{other.prim_path} too at frame {frame_label(frame)}")
+                         else f"{other.prim_path} at frame {frame_label(frame)}")
                 raise OutputPlanError(str(SceneError.at(
-                    scene.source, product.prim_path, "productName",
+                    source, product.prim_path, "productName",
                     f"{str(output.path)!r} is also the file of {clash}; time-sample productName "
                     "or put a #### frame pattern in it")))
             seen[output.path] = (product, job.frame)

@@ -19,12 +19,8 @@ with the min-max spread; Mrays/s counts primary rays (W*H) over kernel seconds.
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import datetime
 import json
-import math
 import os
-import platform
 import statistics
 import sys
 import tempfile

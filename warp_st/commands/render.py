@@ -73,7 +73,10 @@ def plan_outputs(args, scene_path: Path, frames: list[float], frames_given: bool
         if args.output is None and scene is not None and scene.products:
             jobs = plan_products(scene, frames, camera=args.camera,
                                  size_given=args.width is not None or args.height is not None)
-            single_view(jobs)
+            try:
+                single_view(jobs)
+            except OutputPlanError as exc:
+                raise OutputPlanError(f"{scene.source}: {exc}") from None
             return jobs
         return plan_pattern(pattern, frames)
     except OutputPlanError as exc:

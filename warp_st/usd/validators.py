@@ -306,6 +306,7 @@ def _camera_frames(stage, prim, limit: int = 64) -> list[float]:
 
 
 def _stage(stage) -> list:
+    from ..outputs import OutputPlanError, check_product_clashes, product_paths
     from .products import read_products
     from .reader import _StageReader
 
@@ -333,7 +334,13 @@ def _stage(stage) -> list:
         prim = reader._settings_prim()
         chosen.append(reader._render_settings(prim))
         if prim is not None:
-            read_products(where, stage, prim, reader._resolution)
+            products = read_products(where, stage, prim, reader._resolution)
+            frames = sorted({f for product in products for f in _camera_frames(stage, stage.GetPrimAtPath(product.prim_path))})
+            try:  # two products writing one file at a frame (frames and folders: checked at render time)
+                for job in product_paths(products, frames):
+                    check_product_clashes(file, products, [job])
+            except OutputPlanError as exc:
+                raise SceneError(str(exc)) from None
 
     errors += _errors(stage, settings)
     default = (chosen[0].camera if chosen else None) or (cameras[0] if cameras else None)
