@@ -19,6 +19,8 @@ import pytest
 import warp_st
 from warp_st import exr, farm, sequence
 
+from cli_helpers import child_env, no_temp_files, resume_renders_the_rest
+
 ROOT = Path(__file__).resolve().parents[1]
 PARADE = ROOT / "usd_scenes" / "relativistic_parade.usda"
 sys.path.insert(0, str(ROOT / "examples"))  # before any worker starts: they import sweep_beta by name
@@ -147,12 +149,6 @@ def test_default_workers_rule(monkeypatch):
     assert farm.default_workers(1000) == 0
 
 
-def _child_env() -> dict:
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    env.setdefault("WARP_CACHE_PATH", str(ROOT / ".warp_cache"))
-    return env
-
-
 def _frames_in(label: str) -> list[int]:
     """Frames of a frames_label text such as "0-2, 5"."""
     frames = []
@@ -168,7 +164,7 @@ def test_cli_interrupt_then_resume_on_workers(tmp_path):
     file is left); --resume then renders exactly the missing frames."""
     argv = [sys.executable, "-m", "warp_st", "render", str(PARADE), "-o", "seq.####.exr", "--frames", "0-39",
             "--width", "96", "--height", "54", "--workers", "2"]
-    proc = subprocess.Popen(argv, env=_child_env(), cwd=str(tmp_path), stdout=subprocess.PIPE,
+    proc = subprocess.Popen(argv, env=child_env(), cwd=str(tmp_path), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 120
@@ -191,14 +187,6 @@ def test_cli_interrupt_then_resume_on_workers(tmp_path):
     # instant between the interrupt and the cancel: it is complete but not named).
     assert listed and {f"seq.{f:04d}.exr" for f in listed} <= {p.name for p in written}
     assert f"({len(listed)} of 40)" in line
-    assert not [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+    no_temp_files(tmp_path)
     before = {p.name: p.read_bytes() for p in written}
-
-    resumed = subprocess.run(argv + ["--resume"], env=_child_env(), cwd=str(tmp_path), capture_output=True,
-                             text=True, timeout=300)
-    assert resumed.returncode == 0, resumed.stderr
-    skipped = [ln for ln in resumed.stdout.splitlines() if "complete, skipped" in ln]
-    rendered = [ln for ln in resumed.stdout.splitlines() if " s -> " in ln]
-    assert len(skipped) == len(before) and len(rendered) == 40 - len(before), resumed.stdout
-    assert all(exr.is_complete_exr(tmp_path / f"seq.{f:04d}.exr") for f in range(40))
-    assert all((tmp_path / name).read_bytes() == data for name, data in before.items())
+    resume_renders_the_rest(argv, tmp_path, before, 40)

@@ -40,6 +40,8 @@ from warp_st.film import Image
 from warp_st.renderer import Renderer
 from warp_st.scene import SceneError
 
+from cli_helpers import child_env, no_temp_files, one_line, resume_renders_the_rest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 SCENE = """#usda 1.0
@@ -96,20 +98,6 @@ def run(capsys, *argv) -> tuple[int, str, str]:
     code = cli.main([str(a) for a in argv])
     out, err = capsys.readouterr()
     return code, out, err
-
-
-def one_line(err: str) -> str:
-    lines = [ln for ln in err.splitlines() if ln.strip()]
-    assert len(lines) == 1, err
-    assert "Traceback" not in err
-    return lines[0]
-
-
-def child_env(**extra) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(ROOT), **extra)
-    env.setdefault("WARP_CACHE_PATH", str(ROOT / ".warp_cache"))
-    env.pop("WARP_ST_DEBUG", None)
-    return env
 
 
 # --- resource limits ---------------------------------------------------------------------
@@ -231,10 +219,6 @@ def _good_frame(path: Path) -> bytes:
     return path.read_bytes()
 
 
-def _no_temp_files(directory: Path) -> None:
-    assert not [p.name for p in directory.iterdir() if p.name.endswith(".tmp")]
-
-
 def test_disk_full_keeps_earlier_frame_and_leaves_nothing(scene_file, tmp_path, capsys, monkeypatch):
     """ENOSPC in the middle of a write: exit 1 with one line naming the file and the
     complete frames; the earlier good frame is byte-identical; no partial file, no temp.
@@ -262,7 +246,7 @@ def test_disk_full_keeps_earlier_frame_and_leaves_nothing(scene_file, tmp_path, 
         assert code == 1 and "No space left on device" in line and "frames complete" in line, err
         assert earlier.read_bytes() == good
         assert not (directory / "f.0000.exr").exists() or exr.is_complete_exr(directory / "f.0000.exr")
-        _no_temp_files(directory)
+        no_temp_files(directory)
         if mnt is None:
             monkeypatch.setattr(exr, "_encode", real_encode)
 
@@ -307,7 +291,7 @@ def test_directory_turning_read_only_mid_sequence(scene_file, tmp_path, capsys, 
     assert code == 1 and "f.0002.exr" in line and "frames complete: 1 " in line, err
     assert exr.is_complete_exr(out / "f.0001.exr")
     assert earlier.read_bytes() == good
-    _no_temp_files(out)
+    no_temp_files(out)
 
 
 KILL_WRITER = r"""
@@ -380,17 +364,10 @@ def test_sigterm_mid_sequence_then_resume(scene_file, tmp_path):
     written = sorted(p for p in tmp_path.glob("seq.*.exr"))
     assert 1 <= len(written) < 41, "SIGTERM came too late to test anything"
     assert all(exr.is_complete_exr(p) for p in written)
-    _no_temp_files(tmp_path)
+    no_temp_files(tmp_path)
     before = {p.name: p.read_bytes() for p in written}
 
-    resumed = subprocess.run(argv + ["--resume"], env=child_env(), cwd=str(tmp_path), capture_output=True,
-                             text=True, timeout=300)
-    assert resumed.returncode == 0, resumed.stderr
-    skipped = [ln for ln in resumed.stdout.splitlines() if "complete, skipped" in ln]
-    rendered = [ln for ln in resumed.stdout.splitlines() if " s -> " in ln]
-    assert len(skipped) == len(before) and len(rendered) == 41 - len(before), resumed.stdout
-    assert all(exr.is_complete_exr(tmp_path / f"seq.{f:04d}.exr") for f in range(41))
-    assert all((tmp_path / name).read_bytes() == data for name, data in before.items())
+    resume_renders_the_rest(argv, tmp_path, before, 41)
 
 
 # --- reproducibility -------------------------------------------------------------------------

@@ -32,8 +32,8 @@ class StaticArrays:
         if mesh.primitive == "prism":
             # The shading reads four vertex indices with barycentrics (b0, b1, b2, 0).
             vidx, tri = mesh.prisms[:, [0, 1, 2, 0]], mesh.prism_tri
-            speed = np.array([b.velocity for b in mesh.bodies], dtype=np.float64).reshape(-1, 3)
-            self.prism_velocity = speed[mesh.tri_body[tri]] if len(tri) else np.zeros((0, 3))
+            velocity = np.array([b.velocity for b in mesh.bodies], dtype=np.float64).reshape(-1, 3)
+            self.prism_velocity = velocity[mesh.tri_body[tri]] if len(tri) else np.zeros((0, 3))
         else:
             vidx, tri = mesh.tets, mesh.tet_tri
         self.prim_vidx = wp.array(vidx.astype(np.int32), dtype=wp.vec4i, device=_DEVICE)

@@ -151,19 +151,17 @@ def body_slices(
 def segment_sweep(body: Body) -> float:
     """The distance ``body`` may move per time segment (see TRIANGLE_SWEEP)."""
     size = _body_size(body)
-    edges = [_longest_edges(s) for s in body.surfaces]
+    edges = [longest_edges(np.asarray(s.points, dtype=np.float64), surface_triangles(s)) for s in body.surfaces]
     edges = np.concatenate(edges) if edges else np.zeros(0)
     tri = float(np.median(edges)) if len(edges) else size
     return min(SWEEP_FRACTION * size, max(TRIANGLE_SWEEP * tri, MIN_SWEEP_FRACTION * size))
 
 
-def _longest_edges(surf) -> np.ndarray:
-    tris = surface_triangles(surf)
-    pts = np.asarray(surf.points, dtype=np.float64)
-    if len(tris) == 0:
-        return np.zeros(0)
+def longest_edges(pts: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Length of each triangle's longest edge, (T,)."""
     a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
-    return np.sqrt(np.max([((b - a) ** 2).sum(1), ((c - a) ** 2).sum(1), ((c - b) ** 2).sum(1)], axis=0))
+    return np.sqrt(np.max([((b - a) ** 2).sum(1), ((c - a) ** 2).sum(1), ((c - b) ** 2).sum(1)], axis=0,
+                          initial=0.0))
 
 
 def surface_triangles(surf) -> np.ndarray:
@@ -201,6 +199,7 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True) -> Spacetim
             continue
         A = contraction_matrix(body.velocity, body.decoupled)
         A_inv_t = np.linalg.inv(A).T
+        part_slices = [body_slices(body, part, fine=fine) for part in parts]  # each interval on its own
         for surf in body.surfaces:
             tris = surface_triangles(surf)
             if len(tris) == 0:
@@ -218,8 +217,7 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True) -> Spacetim
             # Triangle normals of the contracted shape (lab frame, constant in time).
             e1 = local[tris[:, 1]] - local[tris[:, 0]]
             e2 = local[tris[:, 2]] - local[tris[:, 0]]
-            e3 = local[tris[:, 2]] - local[tris[:, 1]]
-            tri_size.append(np.sqrt(np.max([(e * e).sum(axis=1) for e in (e1, e2, e3)], axis=0)))
+            tri_size.append(longest_edges(local, tris))
             fn = np.cross(e1, e2)
             fn /= np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-300)
             key = surf.material
@@ -232,8 +230,7 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True) -> Spacetim
             tri_body.append(np.full(n_tri, b_index, dtype=np.int32))
             tri_material.append(np.full(n_tri, mat_index[key], dtype=np.int32))
 
-            for part in parts:  # each interval of the window: its own slices
-                slices = body_slices(body, part, fine=fine)
+            for slices in part_slices:
                 ev = _slice_events(local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
                 verts.append(ev.reshape(-1, 4))
                 vnorms.append(np.broadcast_to(nrm, (len(slices), n_pts, 3)).reshape(-1, 3))

@@ -100,7 +100,7 @@ def count_database(scene: Scene, windows, *, fine: bool = True) -> tuple[int, in
     non-degenerate triangle per segment, one vertex per point per slice), without
     building it. A window that is not finite raises SceneError naming the body.
     """
-    from .extrude import body_slices
+    from .extrude import body_slices, surface_triangles
     from .visibility import intervals
 
     tets, verts, per_body = 0, 0, []
@@ -115,8 +115,7 @@ def count_database(scene: Scene, windows, *, fine: bool = True) -> tuple[int, in
                 )
             segments = sum(len(body_slices(body, part, fine=fine)) - 1 for part in parts)
             for surf in body.surfaces:
-                tris = np.asarray(surf.triangles).reshape(-1, 3)
-                n_tri = int(((tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])).sum())
+                n_tri = len(surface_triangles(surf))
                 if n_tri:
                     n_body += 3 * n_tri * segments
                     verts += (segments + len(parts)) * len(surf.points)

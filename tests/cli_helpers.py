@@ -1,0 +1,43 @@
+"""Helpers for tests that run ``warp-st`` in a child process and interrupt it."""
+from __future__ import annotations
+
+import os
+import subprocess
+from pathlib import Path
+
+from warp_st import exr
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def child_env(**extra) -> dict:
+    """The environment of a child ``python -m warp_st``: this checkout, the shared kernel cache."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT), **extra)
+    env.setdefault("WARP_CACHE_PATH", str(ROOT / ".warp_cache"))
+    env.pop("WARP_ST_DEBUG", None)
+    return env
+
+
+def one_line(err: str) -> str:
+    """The single non-empty line of ``err`` (no traceback)."""
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+def no_temp_files(directory: Path) -> None:
+    assert not [p.name for p in directory.iterdir() if p.name.endswith(".tmp")]
+
+
+def resume_renders_the_rest(argv: list[str], folder: Path, before: dict[str, bytes], total: int) -> None:
+    """``argv --resume`` skips the complete frames ``before`` (name -> bytes), renders exactly
+    the other ones of ``seq.0000.exr`` .. ``seq.<total-1>.exr`` and leaves ``before`` byte-identical."""
+    resumed = subprocess.run(argv + ["--resume"], env=child_env(), cwd=str(folder), capture_output=True,
+                             text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    skipped = [ln for ln in resumed.stdout.splitlines() if "complete, skipped" in ln]
+    rendered = [ln for ln in resumed.stdout.splitlines() if " s -> " in ln]
+    assert len(skipped) == len(before) and len(rendered) == total - len(before), resumed.stdout
+    assert all(exr.is_complete_exr(folder / f"seq.{f:04d}.exr") for f in range(total))
+    assert all((folder / name).read_bytes() == data for name, data in before.items())
