@@ -16,6 +16,7 @@ from .conventions import BOX_PAD_ULPS
 from .extrude import SpacetimeMesh
 from .kernels import Kernels
 from .kernels.spectrum import spectral_basis_inverse
+from .kernels.trace import ROOT
 from .scene import Light
 
 __all__ = ["StaticArrays", "make_geometry", "make_shading"]
@@ -38,8 +39,12 @@ class StaticArrays:
             vidx, tri = mesh.tets, mesh.tet_tri
         self.prim_vidx = wp.array(vidx.astype(np.int32), dtype=wp.vec4i, device=_DEVICE)
         self.prim_tri = wp.array(tri.astype(np.int32), dtype=wp.int32, device=_DEVICE)
-        self.node_first = wp.array(bvh.node_first, dtype=wp.int32, device=_DEVICE)
-        self.node_count = wp.array(bvh.node_count, dtype=wp.int32, device=_DEVICE)
+        # Links shifted by ROOT (one unused node in front): the build puts sibling pairs
+        # at odd indices, the kernel wants them even (one cache line per pair of boxes).
+        link = np.zeros((ROOT + bvh.node_count_total, 2), dtype=np.int32)
+        link[ROOT:, 0] = np.where(bvh.node_count > 0, bvh.node_first, bvh.node_first + ROOT)
+        link[ROOT:, 1] = bvh.node_count
+        self.node_link = wp.array(link, dtype=wp.vec2i, device=_DEVICE)
         self.vert_normal = wp.array(mesh.vertex_normals.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
         self.tri_normal = wp.array(mesh.tri_normal.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
         self.tri_smooth = wp.array(mesh.tri_smooth, dtype=wp.int32, device=_DEVICE)
@@ -96,10 +101,11 @@ def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: Fl
     g.prim_vidx = static.prim_vidx
     g.prim_tri = static.prim_tri
     g.tri_body = static.tri_body
-    g.node_lo = wp.array(_outward(bvh.node_lo - origin, ns, -np.inf), dtype=k.vec4, device=_DEVICE)
-    g.node_hi = wp.array(_outward(bvh.node_hi - origin, ns, np.inf), dtype=k.vec4, device=_DEVICE)
-    g.node_first = static.node_first
-    g.node_count = static.node_count
+    box = np.zeros((ROOT + bvh.node_count_total, 2, 4), dtype=ns)
+    box[ROOT:, 0] = _outward(bvh.node_lo - origin, ns, -np.inf)
+    box[ROOT:, 1] = _outward(bvh.node_hi - origin, ns, np.inf)
+    g.node_box = wp.array(box.reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
+    g.node_link = static.node_link
     return g
 
 

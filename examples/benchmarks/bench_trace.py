@@ -121,8 +121,7 @@ def uploaded_bytes(static, geo):
     the kernel reads them; all = every device array of the database (shading too)."""
     import warp as wp
 
-    trace_arrays = [geo.vert, geo.prim_event, geo.prim_vidx, geo.prim_tri, geo.tri_body, geo.node_lo, geo.node_hi,
-                    geo.node_first, geo.node_count]
+    trace_arrays = [geo.vert, geo.prim_event, geo.prim_vidx, geo.prim_tri, geo.tri_body, geo.node_box, geo.node_link]
     trace = sum(_nbytes(a) for a in trace_arrays)
     others = {id(a): a for a in vars(static).values() if isinstance(a, wp.array)}
     for a in trace_arrays:
@@ -532,7 +531,7 @@ def build_report(results, machine, args):
         "mirrors up to max depth 4), aberration = the shipped moving-camera aberration scene, both at frame 0. "
         "Static versions: the same bodies at rest at their authored positions.",
         "- bytes/tet: per tetrahedron of the database (3 per prism); trace arrays = vertices + inline primitive events + "
-        "primitive vertex indices + primitive triangles + tri_body + node_lo/hi/first/count as uploaded; "
+        "primitive vertex indices + primitive triangles + tri_body + node boxes and links as uploaded; "
         "all = plus the shading arrays (normals, materials, bodies).",
     ]
     for n in names:

@@ -34,11 +34,14 @@ edge only, so neighbouring prisms agree on every shared edge (watertight).
 
 import warp as wp
 
-__all__ = ["make_trace", "STACK_SIZE"]
+__all__ = ["make_trace", "STACK_SIZE", "ROOT"]
 
 #: Traversal stack entries: the BVH depth bound (bvh.MAX_DEPTH). Zero-initialised per
 #: ray, so no larger than needed.
 STACK_SIZE = 64
+#: Index of the root in the uploaded node arrays (device.py shifts the BVH by one so
+#: that sibling pairs start at even indices).
+ROOT = 1
 
 
 def make_trace(scalar, primitive: str = "prism"):
@@ -66,10 +69,11 @@ def make_trace(scalar, primitive: str = "prism"):
         prim_vidx: wp.array(dtype=wp.vec4i)  # vertex indices for shading (prism: a, b, c, a)
         prim_tri: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
-        node_lo: wp.array(dtype=vec4)
-        node_hi: wp.array(dtype=vec4)
-        node_first: wp.array(dtype=wp.int32)
-        node_count: wp.array(dtype=wp.int32)
+        # Node i's box corners at 2i (low) and 2i + 1 (high); (first child or first
+        # primitive, primitive count) at i. The root is node ROOT and sibling pairs
+        # start at even indices, so a pair's two boxes share one 64-byte line.
+        node_box: wp.array(dtype=vec4)
+        node_link: wp.array(dtype=wp.vec2i)
 
     @wp.func
     def ray_basis(n: vec3):
@@ -181,8 +185,46 @@ def make_trace(scalar, primitive: str = "prism"):
         return wp.float64(FACE_EPS) * (wp.abs(a[0] * b[1]) + wp.abs(a[1] * b[0]))
 
     @wp.func
-    def hit_prism(g: Geometry, pi: int, o: vec4, nd: dvec3, ud: dvec3, wd: dvec3, finite: int, s_min: scalar, s_max: scalar):
-        """(hit, s, barycentrics (b0, b1, b2, 0)) of the ray with prism pi, s in (s_min, s_max)."""
+    def prism_frame(nd: dvec3, v: dvec3, fin: wp.float64):
+        """Projection of the prism test for ray direction D = n + fin v: (ok, U, W, Z).
+
+        pbrt's permute-and-shear as three vectors: with k_z the largest component of D,
+        a relative position r projects to (r . U, r . W) on the plane transverse to D
+        and r . Z is its lookback along D. It depends only on the ray and the body's
+        velocity: the traversal computes it once per ray for bodies at rest."""
+        d = nd + v * fin
+        ax = wp.abs(d[0])
+        ay = wp.abs(d[1])
+        az = wp.abs(d[2])
+        zero = wp.float64(0.0)
+        one = wp.float64(1.0)
+        U = dvec3(zero)
+        W = dvec3(zero)
+        Z = dvec3(zero)
+        ok = True
+        if ax > ay and ax > az:  # kz = 0, kx = 1, ky = 2
+            inv_z = one / d[0]
+            U = dvec3(-d[1] * inv_z, one, zero)
+            W = dvec3(-d[2] * inv_z, zero, one)
+            Z = dvec3(inv_z, zero, zero)
+        elif ay > az:  # kz = 1, kx = 2, ky = 0
+            inv_z = one / d[1]
+            U = dvec3(zero, -d[2] * inv_z, one)
+            W = dvec3(one, -d[0] * inv_z, zero)
+            Z = dvec3(zero, inv_z, zero)
+        elif az > zero:  # kz = 2, kx = 0, ky = 1
+            inv_z = one / d[2]
+            U = dvec3(one, zero, -d[0] * inv_z)
+            W = dvec3(zero, one, -d[1] * inv_z)
+            Z = dvec3(zero, zero, inv_z)
+        else:
+            ok = False  # D = 0: a decoupled body moving at -n, never met
+        return ok, U, W, Z
+
+    @wp.func
+    def hit_prism_in(g: Geometry, pi: int, o: vec4, U: dvec3, W: dvec3, Z: dvec3, v: dvec3, finite: int, s_min: scalar, s_max: scalar):
+        """(hit, s, barycentrics (b0, b1, b2, 0)) of the ray with prism pi, s in (s_min, s_max),
+        with its velocity's projection (``prism_frame``)."""
         base = 4 * pi
         e0 = g.prim_event[base]
         e1 = g.prim_event[base + 1]
@@ -191,42 +233,16 @@ def make_trace(scalar, primitive: str = "prism"):
         t0 = wp.float64(e0[0])
         t_lo = wp.float64(e1[0])  # the segment [t0, t1], widened where it meets the next
         t_hi = wp.float64(top[0])
-        v = dvec3(wp.float64(top[1]), wp.float64(top[2]), wp.float64(top[3]))
         ot = wp.float64(o[0])
-        dt = ot - t0
-        org = dvec3(wp.float64(o[1]), wp.float64(o[2]), wp.float64(o[3])) - v * dt
-        # D = n + v (finite) or n (infinite), without a branch: selecting a vector
-        # through a branch made the compiler copy it through memory, and the
-        # mismatched store/load sizes stalled store forwarding on every test
-        # (a quarter of the tracing time, measured with perf).
-        fin = wp.float64(0.0)
-        if finite != 0:
-            fin = wp.float64(1.0)
-        elif ot < t_lo or ot > t_hi:
+        if finite == 0 and (ot < t_lo or ot > t_hi):
             return False, scalar(0.0), vec4(scalar(0.0))
-        d = nd + v * fin
-        # Permute so D's largest component is z, then shear it onto the z axis.
-        ax = wp.abs(d[0])
-        ay = wp.abs(d[1])
-        az = wp.abs(d[2])
-        kz = int(2)
-        if ax > ay and ax > az:
-            kz = 0
-        elif ay > az:
-            kz = 1
-        if d[kz] == wp.float64(0.0):
-            return False, scalar(0.0), vec4(scalar(0.0))
-        kx = (kz + 1) % 3
-        ky = (kz + 2) % 3
-        inv_z = wp.float64(1.0) / d[kz]
-        sx = -d[kx] * inv_z
-        sy = -d[ky] * inv_z
+        org = dvec3(wp.float64(o[1]), wp.float64(o[2]), wp.float64(o[3])) - v * (ot - t0)
         r0 = dvec3(wp.float64(e0[1]), wp.float64(e0[2]), wp.float64(e0[3])) - org
         r1 = dvec3(wp.float64(e1[1]), wp.float64(e1[2]), wp.float64(e1[3])) - org
         r2 = dvec3(wp.float64(e2[1]), wp.float64(e2[2]), wp.float64(e2[3])) - org
-        p0 = wp.vec2d(r0[kx] + sx * r0[kz], r0[ky] + sy * r0[kz])
-        p1 = wp.vec2d(r1[kx] + sx * r1[kz], r1[ky] + sy * r1[kz])
-        p2 = wp.vec2d(r2[kx] + sx * r2[kz], r2[ky] + sy * r2[kz])
+        p0 = wp.vec2d(wp.dot(r0, U), wp.dot(r0, W))
+        p1 = wp.vec2d(wp.dot(r1, U), wp.dot(r1, W))
+        p2 = wp.vec2d(wp.dot(r2, U), wp.dot(r2, W))
         # Edge functions over ascending vertex indices (a < b): shared edges give
         # bit-identical values in both prisms. b_i is the edge opposite vertex i.
         b0 = cross2(p1, p2)
@@ -245,13 +261,30 @@ def make_trace(scalar, primitive: str = "prism"):
         if det <= f0 + f1 + f2 or b0 < -f0 or b1 < -f1 or b2 < -f2:
             return False, scalar(0.0), vec4(scalar(0.0))
         inv = wp.float64(1.0) / det
-        sd = (b0 * r0[kz] + b1 * r1[kz] + b2 * r2[kz]) * inv * inv_z
+        sd = (b0 * wp.dot(r0, Z) + b1 * wp.dot(r1, Z) + b2 * wp.dot(r2, Z)) * inv
         if finite != 0:
             th = ot - sd
             if th < t_lo or th > t_hi:
                 return False, scalar(0.0), vec4(scalar(0.0))
         s = scalar(sd)
         return s > s_min and s < s_max, s, vec4(scalar(b0 * inv), scalar(b1 * inv), scalar(b2 * inv), scalar(0.0))
+
+    @wp.func
+    def prism_v(g: Geometry, pi: int) -> dvec3:
+        top = g.prim_event[4 * pi + 3]
+        return dvec3(wp.float64(top[1]), wp.float64(top[2]), wp.float64(top[3]))
+
+    @wp.func
+    def hit_prism(g: Geometry, pi: int, o: vec4, nd: dvec3, ud: dvec3, wd: dvec3, finite: int, s_min: scalar, s_max: scalar):
+        """``hit_prism_in`` with the projection computed for this prism alone."""
+        v = prism_v(g, pi)
+        fin = wp.float64(0.0)
+        if finite != 0:
+            fin = wp.float64(1.0)
+        ok, U, W, Z = prism_frame(nd, v, fin)
+        if not ok:
+            return False, scalar(0.0), vec4(scalar(0.0))
+        return hit_prism_in(g, pi, o, U, W, Z, v, finite, s_min, s_max)
 
     # min/max as single compare-selects (x86 minss/maxss). wp.min/wp.max guard NaN
     # arguments with a second compare each, which doubled the slab test's cost; the
@@ -267,8 +300,8 @@ def make_trace(scalar, primitive: str = "prism"):
     @wp.func
     def box_entry(g: Geometry, node: int, o: vec4, inv: vec4, s_min: scalar, s_max: scalar):
         """Slab test of the 4D box (the t slab is t = t_c - s): (hit, entry s)."""
-        lo = g.node_lo[node]
-        hi = g.node_hi[node]
+        lo = g.node_box[2 * node]
+        hi = g.node_box[2 * node + 1]
         t_near = s_min
         t_far = s_max
         for k in range(4):
@@ -317,6 +350,10 @@ def make_trace(scalar, primitive: str = "prism"):
         if finite != 0:
             dt = scalar(-1.0)
         inv = vec4(safe_inv(dt), safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
+        # The prism projection of bodies at rest (D = n; every body with infinite c),
+        # computed once per ray instead of once per prism test.
+        zero = wp.float64(0.0)
+        _rest_ok, rest_U, rest_W, rest_Z = prism_frame(nd, dvec3(zero), zero)
         best = s_max
         best_tet = int(-1)
         best_lam = vec4(scalar(0.0))
@@ -325,14 +362,15 @@ def make_trace(scalar, primitive: str = "prism"):
         st_node = stack_i()
         st_s = stack_s()
         sp = int(0)
-        root_hit, root_s = box_entry(g, 0, o, inv, s_min, best)
+        root_hit, root_s = box_entry(g, ROOT, o, inv, s_min, best)
         node = int(-1)
         if root_hit:
-            node = 0
+            node = ROOT
         while node >= 0:
             visits += 1
-            count = g.node_count[node]
-            first = g.node_first[node]
+            link = g.node_link[node]
+            first = link[0]
+            count = link[1]
             next_node = int(-1)
             if count > 0:
                 for k in range(count):
@@ -341,7 +379,17 @@ def make_trace(scalar, primitive: str = "prism"):
                     if skip_tri >= 0 or skip_body >= 0:
                         tri = g.prim_tri[ti]
                     if tri != skip_tri:
-                        h, s, lam = hit(g, ti, o, nd, ud, wd, finite, s_min, best)
+                        h = bool(False)
+                        s = scalar(0.0)
+                        lam = vec4(scalar(0.0))
+                        if wp.static(primitive == "prism"):
+                            v = prism_v(g, ti)
+                            if finite == 0 or (v[0] == zero and v[1] == zero and v[2] == zero):
+                                h, s, lam = hit_prism_in(g, ti, o, rest_U, rest_W, rest_Z, v, finite, s_min, best)
+                            else:
+                                h, s, lam = hit_prism(g, ti, o, nd, ud, wd, finite, s_min, best)
+                        else:
+                            h, s, lam = hit(g, ti, o, nd, ud, wd, finite, s_min, best)
                         if h and skip_body >= 0 and s < skip_dist:
                             # (Warp may evaluate both sides of `or`: no index with tri = -2.)
                             if g.tri_body[tri] == skip_body:
