@@ -16,7 +16,7 @@ from .conventions import BOX_PAD_ULPS
 from .extrude import SpacetimeMesh
 from .kernels import Kernels
 from .kernels.spectrum import spectral_basis_inverse
-from .kernels.trace import ROOT
+from .kernels.trace import LINK_MASK, LINK_SHIFT, ROOT
 from .scene import Light
 
 __all__ = ["StaticArrays", "make_geometry", "make_shading"]
@@ -41,10 +41,13 @@ class StaticArrays:
         self.prim_tri = wp.array(tri.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         # Links shifted by ROOT (one unused node in front): the build puts sibling pairs
         # at odd indices, the kernel wants them even (one cache line per pair of boxes).
-        link = np.zeros((ROOT + bvh.node_count_total, 2), dtype=np.int32)
-        link[ROOT:, 0] = np.where(bvh.node_count > 0, bvh.node_first, bvh.node_first + ROOT)
-        link[ROOT:, 1] = bvh.node_count
-        self.node_link = wp.array(link, dtype=wp.vec2i, device=_DEVICE)
+        # Packed as first << LINK_SHIFT | count (see kernels/trace.py).
+        first = np.where(bvh.node_count > 0, bvh.node_first, bvh.node_first + ROOT).astype(np.int64)
+        if len(first) and (bvh.node_count.max() > LINK_MASK or first.max() >= 2 ** (31 - LINK_SHIFT)):
+            raise ValueError("BVH too large for packed node links")  # the memory limit refuses far earlier
+        link = np.zeros(ROOT + bvh.node_count_total, dtype=np.int32)
+        link[ROOT:] = (first << LINK_SHIFT) | bvh.node_count
+        self.node_link = wp.array(link, dtype=wp.int32, device=_DEVICE)
         self.vert_normal = wp.array(mesh.vertex_normals.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
         self.tri_normal = wp.array(mesh.tri_normal.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
         self.tri_smooth = wp.array(mesh.tri_smooth, dtype=wp.int32, device=_DEVICE)

@@ -34,7 +34,7 @@ edge only, so neighbouring prisms agree on every shared edge (watertight).
 
 import warp as wp
 
-__all__ = ["make_trace", "STACK_SIZE", "ROOT"]
+__all__ = ["make_trace", "STACK_SIZE", "ROOT", "LINK_SHIFT", "LINK_MASK"]
 
 #: Traversal stack entries: the BVH depth bound (bvh.MAX_DEPTH). Zero-initialised per
 #: ray, so no larger than needed.
@@ -42,6 +42,10 @@ STACK_SIZE = 64
 #: Index of the root in the uploaded node arrays (device.py shifts the BVH by one so
 #: that sibling pairs start at even indices).
 ROOT = 1
+#: Node links pack (first, count) as first << LINK_SHIFT | count: leaves hold at most
+#: LINK_MASK primitives (bvh.SAH_MAX_LEAF), databases fewer than 2**28 primitives.
+LINK_SHIFT = 3
+LINK_MASK = (1 << LINK_SHIFT) - 1
 
 
 def make_trace(scalar, primitive: str = "prism"):
@@ -69,11 +73,12 @@ def make_trace(scalar, primitive: str = "prism"):
         prim_vidx: wp.array(dtype=wp.vec4i)  # vertex indices for shading (prism: a, b, c, a)
         prim_tri: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
-        # Node i's box corners at 2i (low) and 2i + 1 (high); (first child or first
-        # primitive, primitive count) at i. The root is node ROOT and sibling pairs
-        # start at even indices, so a pair's two boxes share one 64-byte line.
+        # Node i's box corners at 2i (low) and 2i + 1 (high); its link at i: first child
+        # (inner node, count 0) or first primitive (leaf), packed as
+        # first << LINK_SHIFT | count. The root is node ROOT and sibling pairs start
+        # at even indices, so a pair's two boxes share one 64-byte line.
         node_box: wp.array(dtype=vec4)
-        node_link: wp.array(dtype=wp.vec2i)
+        node_link: wp.array(dtype=wp.int32)
 
     @wp.func
     def ray_basis(n: vec3):
@@ -302,13 +307,22 @@ def make_trace(scalar, primitive: str = "prism"):
         """Slab test of the 4D box (the t slab is t = t_c - s): (hit, entry s)."""
         lo = g.node_box[2 * node]
         hi = g.node_box[2 * node + 1]
-        t_near = s_min
-        t_far = s_max
-        for k in range(4):
-            a = (lo[k] - o[k]) * inv[k]
-            b = (hi[k] - o[k]) * inv[k]
-            t_near = fmax(t_near, fmin(a, b))
-            t_far = fmin(t_far, fmax(a, b) * scalar(SLAB_GROW))
+        # All four slabs at once (vector ops the compiler packs into SIMD lanes) and
+        # the two reductions as trees: short dependency chains per visit. The far
+        # exit widens once at the end, as pbrt's does per slab (the scale is
+        # positive, so min and scale commute; a negative exit misses either way).
+        a = wp.cw_mul(lo - o, inv)
+        b = wp.cw_mul(hi - o, inv)
+        n0 = fmin(a[0], b[0])
+        n1 = fmin(a[1], b[1])
+        n2 = fmin(a[2], b[2])
+        n3 = fmin(a[3], b[3])
+        f0 = fmax(a[0], b[0])
+        f1 = fmax(a[1], b[1])
+        f2 = fmax(a[2], b[2])
+        f3 = fmax(a[3], b[3])
+        t_near = fmax(fmax(fmax(n0, n1), fmax(n2, n3)), s_min)
+        t_far = fmin(fmin(fmin(f0, f1), fmin(f2, f3)) * scalar(SLAB_GROW), s_max)
         return t_near <= t_far, t_near
 
     @wp.func
@@ -363,15 +377,17 @@ def make_trace(scalar, primitive: str = "prism"):
         st_s = stack_s()
         sp = int(0)
         root_hit, root_s = box_entry(g, ROOT, o, inv, s_min, best)
-        node = int(-1)
+        # The traversal carries packed links (first << LINK_SHIFT | count), not node
+        # indices: a child's link is loaded beside its box, so a visit needs no
+        # dependent load before its children's boxes.
+        cur = int(-1)
         if root_hit:
-            node = ROOT
-        while node >= 0:
+            cur = g.node_link[ROOT]
+        while cur >= 0:
             visits += 1
-            link = g.node_link[node]
-            first = link[0]
-            count = link[1]
-            next_node = int(-1)
+            first = cur >> LINK_SHIFT
+            count = cur & LINK_MASK
+            next_link = int(-1)
             if count > 0:
                 for k in range(count):
                     ti = first + k
@@ -403,13 +419,15 @@ def make_trace(scalar, primitive: str = "prism"):
             else:
                 h0, e0 = box_entry(g, first, o, inv, s_min, best)
                 h1, e1 = box_entry(g, first + 1, o, inv, s_min, best)
+                l0 = g.node_link[first]
+                l1 = g.node_link[first + 1]
                 if h0 and h1:
-                    near = first
-                    far = first + 1
+                    near = l0
+                    far = l1
                     e_far = e1
                     if e1 < e0:
-                        near = first + 1
-                        far = first
+                        near = l1
+                        far = l0
                         e_far = e0
                     if sp < STACK_SIZE:
                         st_node[sp] = far
@@ -417,17 +435,17 @@ def make_trace(scalar, primitive: str = "prism"):
                         sp += 1
                     else:
                         overflow = 1
-                    next_node = near
+                    next_link = near
                 elif h0:
-                    next_node = first
+                    next_link = l0
                 elif h1:
-                    next_node = first + 1
+                    next_link = l1
             # Pop until a node whose entry is still nearer than the best hit.
-            while next_node < 0 and sp > 0:
+            while next_link < 0 and sp > 0:
                 sp -= 1
                 if st_s[sp] <= best:
-                    next_node = st_node[sp]
-            node = next_node
+                    next_link = st_node[sp]
+            cur = next_link
         return best_tet, best, best_lam, visits, overflow
 
     return Geometry, trace, hit, ray_basis, to_d
