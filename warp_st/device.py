@@ -104,10 +104,16 @@ def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: Fl
     g.prim_vidx = static.prim_vidx
     g.prim_tri = static.prim_tri
     g.tri_body = static.tri_body
-    box = np.zeros((ROOT + bvh.node_count_total, 2, 4), dtype=ns)
-    box[ROOT:, 0] = _outward(bvh.node_lo - origin, ns, -np.inf)
-    box[ROOT:, 1] = _outward(bvh.node_hi - origin, ns, np.inf)
-    g.node_box = wp.array(box.reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
+    # Sibling pairs (2p, 2p + 1) side by side: node_lo[p] = (lo_2p, lo_2p+1), node_hi
+    # likewise. Node 0 (before the root) and the padding node are boxes at t = +inf,
+    # which no ray on a past or infinite-c lightcone enters.
+    m = ROOT + bvh.node_count_total
+    lo = np.full((m + m % 2, 4), np.inf, dtype=ns)
+    hi = lo.copy()
+    lo[ROOT:m] = _outward(bvh.node_lo - origin, ns, -np.inf)
+    hi[ROOT:m] = _outward(bvh.node_hi - origin, ns, np.inf)
+    g.node_lo = wp.array(lo.reshape(-1, 8), dtype=k.vec8, device=_DEVICE)
+    g.node_hi = wp.array(hi.reshape(-1, 8), dtype=k.vec8, device=_DEVICE)
     g.node_link = static.node_link
     return g
 

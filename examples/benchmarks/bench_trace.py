@@ -121,7 +121,7 @@ def uploaded_bytes(static, geo):
     the kernel reads them; all = every device array of the database (shading too)."""
     import warp as wp
 
-    trace_arrays = [geo.vert, geo.prim_event, geo.prim_vidx, geo.prim_tri, geo.tri_body, geo.node_box, geo.node_link]
+    trace_arrays = [geo.vert, geo.prim_event, geo.prim_vidx, geo.prim_tri, geo.tri_body, geo.node_lo, geo.node_hi, geo.node_link]
     trace = sum(_nbytes(a) for a in trace_arrays)
     others = {id(a): a for a in vars(static).values() if isinstance(a, wp.array)}
     for a in trace_arrays:

@@ -40,7 +40,7 @@ __all__ = ["make_trace", "STACK_SIZE", "ROOT", "LINK_SHIFT", "LINK_MASK"]
 #: ray, so no larger than needed.
 STACK_SIZE = 64
 #: Index of the root in the uploaded node arrays (device.py shifts the BVH by one so
-#: that sibling pairs start at even indices).
+#: that sibling pairs start at even indices; node 0 is an empty box).
 ROOT = 1
 #: Node links pack (first, count) as first << LINK_SHIFT | count: leaves hold at most
 #: LINK_MASK primitives (bvh.SAH_MAX_LEAF), databases fewer than 2**28 primitives.
@@ -51,6 +51,7 @@ LINK_MASK = (1 << LINK_SHIFT) - 1
 def make_trace(scalar, primitive: str = "prism"):
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
+    vec8 = wp.types.vector(8, scalar)
     stack_i = wp.types.vector(STACK_SIZE, wp.int32)
     stack_s = wp.types.vector(STACK_SIZE, scalar)
     BIG = 1.0e30
@@ -73,11 +74,13 @@ def make_trace(scalar, primitive: str = "prism"):
         prim_vidx: wp.array(dtype=wp.vec4i)  # vertex indices for shading (prism: a, b, c, a)
         prim_tri: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
-        # Node i's box corners at 2i (low) and 2i + 1 (high); its link at i: first child
-        # (inner node, count 0) or first primitive (leaf), packed as
-        # first << LINK_SHIFT | count. The root is node ROOT and sibling pairs start
-        # at even indices, so a pair's two boxes share one 64-byte line.
-        node_box: wp.array(dtype=vec4)
+        # Boxes by sibling pair: pair p holds the low corners (t, x, y, z) of nodes 2p
+        # and 2p + 1 in node_lo[p] and their high corners in node_hi[p] (one 64-byte
+        # line in float32). The root is node ROOT = 1, paired with an empty node 0.
+        # Node i's link: first child (inner node, count 0) or first primitive
+        # (leaf), packed as first << LINK_SHIFT | count.
+        node_lo: wp.array(dtype=vec8)
+        node_hi: wp.array(dtype=vec8)
         node_link: wp.array(dtype=wp.int32)
 
     @wp.func
@@ -303,27 +306,27 @@ def make_trace(scalar, primitive: str = "prism"):
         return wp.where(a > b, a, b)
 
     @wp.func
-    def box_entry(g: Geometry, node: int, o: vec4, inv: vec4, s_min: scalar, s_max: scalar):
-        """Slab test of the 4D box (the t slab is t = t_c - s): (hit, entry s)."""
-        lo = g.node_box[2 * node]
-        hi = g.node_box[2 * node + 1]
-        # All four slabs at once (vector ops the compiler packs into SIMD lanes) and
-        # the two reductions as trees: short dependency chains per visit. The far
-        # exit widens once at the end, as pbrt's does per slab (the scale is
-        # positive, so min and scale commute; a negative exit misses either way).
-        a = wp.cw_mul(lo - o, inv)
-        b = wp.cw_mul(hi - o, inv)
-        n0 = fmin(a[0], b[0])
-        n1 = fmin(a[1], b[1])
-        n2 = fmin(a[2], b[2])
-        n3 = fmin(a[3], b[3])
-        f0 = fmax(a[0], b[0])
-        f1 = fmax(a[1], b[1])
-        f2 = fmax(a[2], b[2])
-        f3 = fmax(a[3], b[3])
-        t_near = fmax(fmax(fmax(n0, n1), fmax(n2, n3)), s_min)
-        t_far = fmin(fmin(fmin(f0, f1), fmin(f2, f3)) * scalar(SLAB_GROW), s_max)
-        return t_near <= t_far, t_near
+    def box_pair(g: Geometry, first: int, o8: vec8, inv8: vec8, s_min: scalar, s_max: scalar):
+        """Slab tests of sibling boxes ``first`` and ``first + 1`` (even) at once:
+        (hit 0, entry 0, hit 1, entry 1). The t slab is t = t_c - s.
+
+        All eight slabs as vector ops (the compiler packs them into SIMD lanes), the
+        reductions as trees: short dependency chains per visit. The far exit widens
+        once at the end, as pbrt's does per slab (the scale is positive, so min and
+        scale commute; a negative exit misses either way)."""
+        p = first >> 1
+        a = wp.cw_mul(g.node_lo[p] - o8, inv8)
+        b = wp.cw_mul(g.node_hi[p] - o8, inv8)
+        n = vec8()
+        f = vec8()
+        for k in range(8):
+            n[k] = fmin(a[k], b[k])
+            f[k] = fmax(a[k], b[k])
+        near0 = fmax(fmax(fmax(n[0], n[1]), fmax(n[2], n[3])), s_min)
+        near1 = fmax(fmax(fmax(n[4], n[5]), fmax(n[6], n[7])), s_min)
+        far0 = fmin(fmin(fmin(f[0], f[1]), fmin(f[2], f[3])) * scalar(SLAB_GROW), s_max)
+        far1 = fmin(fmin(fmin(f[4], f[5]), fmin(f[6], f[7])) * scalar(SLAB_GROW), s_max)
+        return near0 <= far0, near0, near1 <= far1, near1
 
     @wp.func
     def safe_inv(x: scalar) -> scalar:
@@ -364,6 +367,8 @@ def make_trace(scalar, primitive: str = "prism"):
         if finite != 0:
             dt = scalar(-1.0)
         inv = vec4(safe_inv(dt), safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
+        o8 = vec8(o[0], o[1], o[2], o[3], o[0], o[1], o[2], o[3])
+        inv8 = vec8(inv[0], inv[1], inv[2], inv[3], inv[0], inv[1], inv[2], inv[3])
         # The prism projection of bodies at rest (D = n; every body with infinite c),
         # computed once per ray instead of once per prism test.
         zero = wp.float64(0.0)
@@ -376,7 +381,7 @@ def make_trace(scalar, primitive: str = "prism"):
         st_node = stack_i()
         st_s = stack_s()
         sp = int(0)
-        root_hit, root_s = box_entry(g, ROOT, o, inv, s_min, best)
+        _h, _e, root_hit, root_s = box_pair(g, ROOT - 1, o8, inv8, s_min, best)
         # The traversal carries packed links (first << LINK_SHIFT | count), not node
         # indices: a child's link is loaded beside its box, so a visit needs no
         # dependent load before its children's boxes.
@@ -417,8 +422,7 @@ def make_trace(scalar, primitive: str = "prism"):
                 if any_hit != 0 and best_tet >= 0:
                     break
             else:
-                h0, e0 = box_entry(g, first, o, inv, s_min, best)
-                h1, e1 = box_entry(g, first + 1, o, inv, s_min, best)
+                h0, e0, h1, e1 = box_pair(g, first, o8, inv8, s_min, best)
                 l0 = g.node_link[first]
                 l1 = g.node_link[first + 1]
                 if h0 and h1:
