@@ -359,16 +359,19 @@ def make_trace(scalar, primitive: str = "prism"):
         Returns (primitive index or -1, s, barycentrics, nodes visited, stack overflowed).
         Near child first with a fixed stack; an overflow is reported, never silent.
         """
-        u, w = ray_basis(n)
-        nd = to_d(n)
-        ud = to_d(u)
-        wd = to_d(w)
         dt = scalar(0.0)
         if finite != 0:
             dt = scalar(-1.0)
         inv = vec4(safe_inv(dt), safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
         o8 = vec8(o[0], o[1], o[2], o[3], o[0], o[1], o[2], o[3])
         inv8 = vec8(inv[0], inv[1], inv[2], inv[3], inv[0], inv[1], inv[2], inv[3])
+        _h, _e, root_hit, root_s = box_pair(g, ROOT - 1, o8, inv8, s_min, s_max)
+        if not root_hit:  # (sky rays: nothing else to set up)
+            return int(-1), s_max, vec4(scalar(0.0)), int(0), int(0)
+        u, w = ray_basis(n)
+        nd = to_d(n)
+        ud = to_d(u)
+        wd = to_d(w)
         # The prism projection of bodies at rest (D = n; every body with infinite c),
         # computed once per ray instead of once per prism test.
         zero = wp.float64(0.0)
@@ -381,13 +384,10 @@ def make_trace(scalar, primitive: str = "prism"):
         st_node = stack_i()
         st_s = stack_s()
         sp = int(0)
-        _h, _e, root_hit, root_s = box_pair(g, ROOT - 1, o8, inv8, s_min, best)
         # The traversal carries packed links (first << LINK_SHIFT | count), not node
         # indices: a child's link is loaded beside its box, so a visit needs no
         # dependent load before its children's boxes.
-        cur = int(-1)
-        if root_hit:
-            cur = g.node_link[ROOT]
+        cur = g.node_link[ROOT]
         while cur >= 0:
             visits += 1
             first = cur >> LINK_SHIFT
