@@ -12,11 +12,11 @@ import numpy as np
 import warp as wp
 
 from .bvh import FlatBVH
+from .bvh_wide import collapse, wide_boxes
 from .conventions import BOX_PAD_ULPS
 from .extrude import SpacetimeMesh
 from .kernels import Kernels
 from .kernels.spectrum import spectral_basis_inverse
-from .kernels.trace import LINK_MASK, LINK_SHIFT, ROOT
 from .scene import Light
 
 __all__ = ["StaticArrays", "make_geometry", "make_shading"]
@@ -39,15 +39,9 @@ class StaticArrays:
             vidx, tri = mesh.tets, mesh.tet_tri
         self.prim_vidx = wp.array(vidx.astype(np.int32), dtype=wp.vec4i, device=_DEVICE)
         self.prim_tri = wp.array(tri.astype(np.int32), dtype=wp.int32, device=_DEVICE)
-        # Links shifted by ROOT (one unused node in front): the build puts sibling pairs
-        # at odd indices, the kernel wants them even (one cache line per pair of boxes).
-        # Packed as first << LINK_SHIFT | count (see kernels/trace.py).
-        first = np.where(bvh.node_count > 0, bvh.node_first, bvh.node_first + ROOT).astype(np.int64)
-        if len(first) and (bvh.node_count.max() > LINK_MASK or first.max() >= 2 ** (31 - LINK_SHIFT)):
-            raise ValueError("BVH too large for packed node links")  # the memory limit refuses far earlier
-        link = np.zeros(ROOT + bvh.node_count_total, dtype=np.int32)
-        link[ROOT:] = (first << LINK_SHIFT) | bvh.node_count
-        self.node_link = wp.array(link, dtype=wp.int32, device=_DEVICE)
+        # The kernel traces the 4-wide form of the BVH (bvh_wide.py).
+        self.wide = collapse(bvh)
+        self.node_link = wp.array(self.wide.link, dtype=wp.vec4i, device=_DEVICE)
         self.vert_normal = wp.array(mesh.vertex_normals.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
         self.tri_normal = wp.array(mesh.tri_normal.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
         self.tri_smooth = wp.array(mesh.tri_smooth, dtype=wp.int32, device=_DEVICE)
@@ -104,16 +98,12 @@ def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: Fl
     g.prim_vidx = static.prim_vidx
     g.prim_tri = static.prim_tri
     g.tri_body = static.tri_body
-    # Sibling pairs (2p, 2p + 1) side by side: node_lo[p] = (lo_2p, lo_2p+1), node_hi
-    # likewise. Node 0 (before the root) and the padding node are boxes at t = +inf,
-    # which no ray on a past or infinite-c lightcone enters.
-    m = ROOT + bvh.node_count_total
-    lo = np.full((m + m % 2, 4), np.inf, dtype=ns)
-    hi = lo.copy()
-    lo[ROOT:m] = _outward(bvh.node_lo - origin, ns, -np.inf)
-    hi[ROOT:m] = _outward(bvh.node_hi - origin, ns, np.inf)
-    g.node_lo = wp.array(lo.reshape(-1, 8), dtype=k.vec8, device=_DEVICE)
-    g.node_hi = wp.array(hi.reshape(-1, 8), dtype=k.vec8, device=_DEVICE)
+    node_lo, node_hi = _outward(bvh.node_lo - origin, ns, -np.inf), _outward(bvh.node_hi - origin, ns, np.inf)
+    g.root_lo = k.vec4(*node_lo[0].tolist())
+    g.root_hi = k.vec4(*node_hi[0].tolist())
+    lo, hi = wide_boxes(static.wide, node_lo, node_hi)
+    g.node_lo = wp.array(lo, dtype=k.vec16, device=_DEVICE)
+    g.node_hi = wp.array(hi, dtype=k.vec16, device=_DEVICE)
     g.node_link = static.node_link
     return g
 

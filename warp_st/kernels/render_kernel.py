@@ -24,7 +24,7 @@ class Kernels:
         self.primitive = primitive
         self.vec3 = wp.types.vector(3, scalar)
         self.vec4 = wp.types.vector(4, scalar)
-        self.vec8 = wp.types.vector(8, scalar)  # a sibling pair of node box corners
+        self.vec16 = wp.types.vector(16, scalar)  # box corners of a wide node's four children
         self.mat33 = wp.types.matrix((3, 3), scalar)
         Geometry, trace, hit_prim, basis, to_d = make_trace(scalar, primitive)
         self.Geometry = Geometry

@@ -34,27 +34,24 @@ edge only, so neighbouring prisms agree on every shared edge (watertight).
 
 import warp as wp
 
-__all__ = ["make_trace", "STACK_SIZE", "ROOT", "LINK_SHIFT", "LINK_MASK"]
+from ..bvh_wide import LINK_MASK, LINK_SHIFT, MAX_WIDE_DEPTH
 
-#: Traversal stack entries: the BVH depth bound (bvh.MAX_DEPTH). Zero-initialised per
-#: ray, so no larger than needed.
-STACK_SIZE = 64
-#: Index of the root in the uploaded node arrays (device.py shifts the BVH by one so
-#: that sibling pairs start at even indices; node 0 is an empty box).
-ROOT = 1
-#: Node links pack (first, count) as first << LINK_SHIFT | count: leaves hold at most
-#: LINK_MASK primitives (bvh.SAH_MAX_LEAF), databases fewer than 2**28 primitives.
-LINK_SHIFT = 3
-LINK_MASK = (1 << LINK_SHIFT) - 1
+__all__ = ["make_trace", "STACK_SIZE"]
+
+#: Traversal stack entries: a visit pushes at most three children, so three per level
+#: of the wide tree (bvh_wide.MAX_WIDE_DEPTH) bound it. Zero-initialised per ray, so
+#: no larger than needed.
+STACK_SIZE = 3 * MAX_WIDE_DEPTH
 
 
 def make_trace(scalar, primitive: str = "prism"):
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
-    vec8 = wp.types.vector(8, scalar)
+    vec16 = wp.types.vector(16, scalar)
     stack_i = wp.types.vector(STACK_SIZE, wp.int32)
     stack_s = wp.types.vector(STACK_SIZE, scalar)
     BIG = 1.0e30
+    INF = float("inf")
     # pbrt's gamma(3)-style widening of the slab interval against rounding.
     dvec3 = wp.types.vector(3, wp.float64)
     EPS = 6.0e-8 if wp.types.type_size_in_bytes(scalar) == 4 else 1.12e-16
@@ -74,14 +71,16 @@ def make_trace(scalar, primitive: str = "prism"):
         prim_vidx: wp.array(dtype=wp.vec4i)  # vertex indices for shading (prism: a, b, c, a)
         prim_tri: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
-        # Boxes by sibling pair: pair p holds the low corners (t, x, y, z) of nodes 2p
-        # and 2p + 1 in node_lo[p] and their high corners in node_hi[p] (one 64-byte
-        # line in float32). The root is node ROOT = 1, paired with an empty node 0.
-        # Node i's link: first child (inner node, count 0) or first primitive
-        # (leaf), packed as first << LINK_SHIFT | count.
-        node_lo: wp.array(dtype=vec8)
-        node_hi: wp.array(dtype=vec8)
-        node_link: wp.array(dtype=wp.int32)
+        # The 4-wide BVH (bvh_wide.py): wide node j's four child boxes, axis-major
+        # (t0..t3, x0..x3, y0..y3, z0..z3), low corners in node_lo[j], high in
+        # node_hi[j]; its children's links first << LINK_SHIFT | count (a leaf's
+        # primitive range, or a wide node with count 0; -1 for an empty slot).
+        # The root is wide node 0.
+        node_lo: wp.array(dtype=vec16)
+        node_hi: wp.array(dtype=vec16)
+        node_link: wp.array(dtype=wp.vec4i)
+        root_lo: vec4  # the root's box (the whole database)
+        root_hi: vec4
 
     @wp.func
     def ray_basis(n: vec3):
@@ -306,27 +305,39 @@ def make_trace(scalar, primitive: str = "prism"):
         return wp.where(a > b, a, b)
 
     @wp.func
-    def box_pair(g: Geometry, first: int, o8: vec8, inv8: vec8, s_min: scalar, s_max: scalar):
-        """Slab tests of sibling boxes ``first`` and ``first + 1`` (even) at once:
-        (hit 0, entry 0, hit 1, entry 1). The t slab is t = t_c - s.
+    def box_quad(g: Geometry, node: int, o16: vec16, inv16: vec16, s_min: scalar, s_max: scalar):
+        """Slab tests of wide node ``node``'s four child boxes at once: (entries, exits).
+        Child k is hit when entries[k] <= exits[k]. The t slab is t = t_c - s.
 
-        All eight slabs as vector ops (the compiler packs them into SIMD lanes), the
-        reductions as trees: short dependency chains per visit. The far exit widens
-        once at the end, as pbrt's does per slab (the scale is positive, so min and
-        scale commute; a negative exit misses either way)."""
-        p = first >> 1
-        a = wp.cw_mul(g.node_lo[p] - o8, inv8)
-        b = wp.cw_mul(g.node_hi[p] - o8, inv8)
-        n = vec8()
-        f = vec8()
-        for k in range(8):
+        All sixteen slabs as vector ops (the compiler packs them into SIMD lanes), the
+        reductions over the four axes as trees. The far exit widens once at the end,
+        as pbrt's does per slab (the scale is positive, so min and scale commute; a
+        negative exit misses either way)."""
+        a = wp.cw_mul(g.node_lo[node] - o16, inv16)
+        b = wp.cw_mul(g.node_hi[node] - o16, inv16)
+        n = vec16()
+        f = vec16()
+        for k in range(16):
             n[k] = fmin(a[k], b[k])
             f[k] = fmax(a[k], b[k])
-        near0 = fmax(fmax(fmax(n[0], n[1]), fmax(n[2], n[3])), s_min)
-        near1 = fmax(fmax(fmax(n[4], n[5]), fmax(n[6], n[7])), s_min)
-        far0 = fmin(fmin(fmin(f[0], f[1]), fmin(f[2], f[3])) * scalar(SLAB_GROW), s_max)
-        far1 = fmin(fmin(fmin(f[4], f[5]), fmin(f[6], f[7])) * scalar(SLAB_GROW), s_max)
-        return near0 <= far0, near0, near1 <= far1, near1
+        near = vec4()
+        far = vec4()
+        for k in range(4):
+            near[k] = fmax(fmax(fmax(n[k], n[4 + k]), fmax(n[8 + k], n[12 + k])), s_min)
+            far[k] = fmin(fmin(fmin(f[k], f[4 + k]), fmin(f[8 + k], f[12 + k])) * scalar(SLAB_GROW), s_max)
+        return near, far
+
+    @wp.func
+    def order2(e: vec4, l: wp.vec4i, i: int, j: int):
+        """Compare-exchange of entries i < j (with their links) into ascending order."""
+        if e[j] < e[i]:
+            t = e[i]
+            e[i] = e[j]
+            e[j] = t
+            m = l[i]
+            l[i] = l[j]
+            l[j] = m
+        return e, l
 
     @wp.func
     def safe_inv(x: scalar) -> scalar:
@@ -363,11 +374,21 @@ def make_trace(scalar, primitive: str = "prism"):
         if finite != 0:
             dt = scalar(-1.0)
         inv = vec4(safe_inv(dt), safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
-        o8 = vec8(o[0], o[1], o[2], o[3], o[0], o[1], o[2], o[3])
-        inv8 = vec8(inv[0], inv[1], inv[2], inv[3], inv[0], inv[1], inv[2], inv[3])
-        _h, _e, root_hit, root_s = box_pair(g, ROOT - 1, o8, inv8, s_min, s_max)
-        if not root_hit:  # (sky rays: nothing else to set up)
+        # The scene's box first: rays that miss it (sky) return before any other set-up.
+        ra = wp.cw_mul(g.root_lo - o, inv)
+        rb = wp.cw_mul(g.root_hi - o, inv)
+        r_near = s_min
+        r_far = s_max
+        for k in range(4):
+            r_near = fmax(r_near, fmin(ra[k], rb[k]))
+            r_far = fmin(r_far, fmax(ra[k], rb[k]) * scalar(SLAB_GROW))
+        if r_near > r_far:
             return int(-1), s_max, vec4(scalar(0.0)), int(0), int(0)
+        o16 = vec16()
+        inv16 = vec16()
+        for k in range(16):
+            o16[k] = o[k // 4]
+            inv16[k] = inv[k // 4]
         u, w = ray_basis(n)
         nd = to_d(n)
         ud = to_d(u)
@@ -385,9 +406,9 @@ def make_trace(scalar, primitive: str = "prism"):
         st_s = stack_s()
         sp = int(0)
         # The traversal carries packed links (first << LINK_SHIFT | count), not node
-        # indices: a child's link is loaded beside its box, so a visit needs no
-        # dependent load before its children's boxes.
-        cur = g.node_link[ROOT]
+        # indices: children's links are loaded beside their boxes, so a visit needs
+        # no dependent load before its children's boxes.
+        cur = int(0)  # wide node 0, the root
         while cur >= 0:
             visits += 1
             first = cur >> LINK_SHIFT
@@ -422,28 +443,34 @@ def make_trace(scalar, primitive: str = "prism"):
                 if any_hit != 0 and best_tet >= 0:
                     break
             else:
-                h0, e0, h1, e1 = box_pair(g, first, o8, inv8, s_min, best)
-                l0 = g.node_link[first]
-                l1 = g.node_link[first + 1]
-                if h0 and h1:
-                    near = l0
-                    far = l1
-                    e_far = e1
-                    if e1 < e0:
-                        near = l1
-                        far = l0
-                        e_far = e0
-                    if sp < STACK_SIZE:
-                        st_node[sp] = far
-                        st_s[sp] = e_far
-                        sp += 1
+                near, far = box_quad(g, first, o16, inv16, s_min, best)
+                links = g.node_link[first]
+                # Children missed get entry +inf; sort the four by entry (a 5-exchange
+                # network), go to the nearest hit, push the other hits farthest first.
+                e = vec4()
+                hits = int(0)
+                for k in range(4):
+                    if near[k] <= far[k]:
+                        e[k] = near[k]
+                        hits += 1
+                    else:
+                        e[k] = scalar(INF)
+                e, links = order2(e, links, 0, 1)
+                e, links = order2(e, links, 2, 3)
+                e, links = order2(e, links, 0, 2)
+                e, links = order2(e, links, 1, 3)
+                e, links = order2(e, links, 1, 2)
+                if hits > 0:
+                    next_link = links[0]
+                    if sp + hits - 1 <= STACK_SIZE:
+                        for k in range(3):
+                            j = 3 - k
+                            if j < hits:
+                                st_node[sp] = links[j]
+                                st_s[sp] = e[j]
+                                sp += 1
                     else:
                         overflow = 1
-                    next_link = near
-                elif h0:
-                    next_link = l0
-                elif h1:
-                    next_link = l1
             # Pop until a node whose entry is still nearer than the best hit.
             while next_link < 0 and sp > 0:
                 sp -= 1
