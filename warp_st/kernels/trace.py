@@ -229,21 +229,20 @@ def make_trace(scalar, primitive: str = "prism"):
         return ok, U, W, Z
 
     @wp.func
-    def hit_prism_in(g: Geometry, pi: int, o: vec4, U: dvec3, W: dvec3, Z: dvec3, v: dvec3, finite: int, s_min: scalar, s_max: scalar):
+    def hit_prism_in(g: Geometry, pi: int, o: vec4, org: dvec3, U: dvec3, W: dvec3, Z: dvec3, finite: int, s_min: scalar, s_max: scalar):
         """(hit, s, barycentrics (b0, b1, b2, 0)) of the ray with prism pi, s in (s_min, s_max),
-        with its velocity's projection (``prism_frame``)."""
+        with its velocity's projection (``prism_frame``) and the ray origin in the
+        prism's comoving coordinates, ``org`` = o_x - v (o_t - t0) (``comoving_origin``)."""
         base = 4 * pi
         e0 = g.prim_event[base]
         e1 = g.prim_event[base + 1]
         e2 = g.prim_event[base + 2]
         top = g.prim_event[base + 3]
-        t0 = wp.float64(e0[0])
         t_lo = wp.float64(e1[0])  # the segment [t0, t1], widened where it meets the next
         t_hi = wp.float64(top[0])
         ot = wp.float64(o[0])
         if finite == 0 and (ot < t_lo or ot > t_hi):
             return False, scalar(0.0), vec4(scalar(0.0))
-        org = dvec3(wp.float64(o[1]), wp.float64(o[2]), wp.float64(o[3])) - v * (ot - t0)
         r0 = dvec3(wp.float64(e0[1]), wp.float64(e0[2]), wp.float64(e0[3])) - org
         r1 = dvec3(wp.float64(e1[1]), wp.float64(e1[2]), wp.float64(e1[3])) - org
         r2 = dvec3(wp.float64(e2[1]), wp.float64(e2[2]), wp.float64(e2[3])) - org
@@ -277,6 +276,11 @@ def make_trace(scalar, primitive: str = "prism"):
         return s > s_min and s < s_max, s, vec4(scalar(b0 * inv), scalar(b1 * inv), scalar(b2 * inv), scalar(0.0))
 
     @wp.func
+    def comoving_origin(g: Geometry, pi: int, o: vec4, v: dvec3) -> dvec3:
+        t0 = wp.float64(g.prim_event[4 * pi][0])
+        return dvec3(wp.float64(o[1]), wp.float64(o[2]), wp.float64(o[3])) - v * (wp.float64(o[0]) - t0)
+
+    @wp.func
     def prism_v(g: Geometry, pi: int) -> dvec3:
         top = g.prim_event[4 * pi + 3]
         return dvec3(wp.float64(top[1]), wp.float64(top[2]), wp.float64(top[3]))
@@ -291,7 +295,7 @@ def make_trace(scalar, primitive: str = "prism"):
         ok, U, W, Z = prism_frame(nd, v, fin)
         if not ok:
             return False, scalar(0.0), vec4(scalar(0.0))
-        return hit_prism_in(g, pi, o, U, W, Z, v, finite, s_min, s_max)
+        return hit_prism_in(g, pi, o, comoving_origin(g, pi, o, v), U, W, Z, finite, s_min, s_max)
 
     # min/max as single compare-selects (x86 minss/maxss). wp.min/wp.max guard NaN
     # arguments with a second compare each, which doubled the slab test's cost; the
@@ -370,10 +374,11 @@ def make_trace(scalar, primitive: str = "prism"):
         Returns (primitive index or -1, s, barycentrics, nodes visited, stack overflowed).
         Near child first with a fixed stack; an overflow is reported, never silent.
         """
-        dt = scalar(0.0)
+        # 1 / dt: dt = -1 on the past lightcone, 0 with infinite light speed.
+        inv_t = scalar(BIG)
         if finite != 0:
-            dt = scalar(-1.0)
-        inv = vec4(safe_inv(dt), safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
+            inv_t = scalar(-1.0)
+        inv = vec4(inv_t, safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
         # The scene's box first: rays that miss it (sky) return before any other set-up.
         ra = wp.cw_mul(g.root_lo - o, inv)
         rb = wp.cw_mul(g.root_hi - o, inv)
@@ -397,6 +402,7 @@ def make_trace(scalar, primitive: str = "prism"):
         # computed once per ray instead of once per prism test.
         zero = wp.float64(0.0)
         _rest_ok, rest_U, rest_W, rest_Z = prism_frame(nd, dvec3(zero), zero)
+        rest_org = dvec3(wp.float64(o[1]), wp.float64(o[2]), wp.float64(o[3]))
         best = s_max
         best_tet = int(-1)
         best_lam = vec4(scalar(0.0))
@@ -426,8 +432,10 @@ def make_trace(scalar, primitive: str = "prism"):
                         lam = vec4(scalar(0.0))
                         if wp.static(primitive == "prism"):
                             v = prism_v(g, ti)
-                            if finite == 0 or (v[0] == zero and v[1] == zero and v[2] == zero):
-                                h, s, lam = hit_prism_in(g, ti, o, rest_U, rest_W, rest_Z, v, finite, s_min, best)
+                            if v[0] == zero and v[1] == zero and v[2] == zero:
+                                h, s, lam = hit_prism_in(g, ti, o, rest_org, rest_U, rest_W, rest_Z, finite, s_min, best)
+                            elif finite == 0:
+                                h, s, lam = hit_prism_in(g, ti, o, comoving_origin(g, ti, o, v), rest_U, rest_W, rest_Z, finite, s_min, best)
                             else:
                                 h, s, lam = hit_prism(g, ti, o, nd, ud, wd, finite, s_min, best)
                         else:
