@@ -142,11 +142,16 @@ def test_traversal_stack_holds_the_deepest_tree():
     bound, and a built tree must respect that bound (an overflow would be reported as an
     error at render time, never silent)."""
     from warp_st.bvh import MAX_DEPTH, build_bvh
+    from warp_st.bvh_wide import MAX_WIDE_DEPTH, WIDTH, collapse
     from warp_st.kernels.trace import STACK_SIZE
 
-    assert STACK_SIZE >= MAX_DEPTH
+    # The kernel walks the 4-wide tree: a visit leaves at most WIDTH - 1 children on
+    # the stack, so WIDTH - 1 entries per wide level.
+    assert 2 * MAX_WIDE_DEPTH >= MAX_DEPTH
+    assert STACK_SIZE >= (WIDTH - 1) * MAX_WIDE_DEPTH
     rng = np.random.default_rng(2)
     # A badly clustered set: geometric spacing drives the SAH to lopsided splits.
     c = np.column_stack([np.zeros(20000), 2.0 ** -np.arange(20000) % 1, rng.random((20000, 2))])
     bvh = build_bvh(c - 1e-3, c + 1e-3)
     assert bvh.depth <= MAX_DEPTH
+    assert collapse(bvh).depth <= MAX_WIDE_DEPTH

@@ -30,6 +30,11 @@ the same moving triangle, continued), which keeps slice times watertight.
 The test projects along D (pbrt's permute-and-shear) and evaluates each edge function
 over the sorted global vertex indices with a rounding tolerance that depends on the
 edge only, so neighbouring prisms agree on every shared edge (watertight).
+
+Traversal: the 4-wide form of the 4D BVH (bvh_wide.py), nearest child first with a
+fixed stack. A visit tests its four child boxes as one 16-lane slab test and carries
+the children's packed links, loaded beside their boxes. Rays that miss the whole
+database's box return before any other set-up.
 """
 
 import warp as wp
