@@ -656,7 +656,7 @@ class Bench:
         if self.quick:
             grids, cubes, segments = [1, 3], [8, 27], [8, 16]
         else:
-            grids, cubes, segments = [1, 2, 3, 6, 11, 20], [3, 27, 125, 343, 1000], [8, 16, 32, 64, 128, 256]
+            grids, cubes, segments = [1, 2, 3, 6, 11, 20], [3, 27, 125, 343, 1000], [8, 16, 32, 64, 80, 128, 256]
         rows = []
         for n in grids:
             scene = sphere_grid_scene(24, n)
@@ -1191,9 +1191,12 @@ def summary_rows(results):
             rs = [r for r in results["scaling"]["rows"] if r["family"] == fam]
             if rs:
                 a, b = rs[0], rs[-1]
+                # The yardstick: render-time growth up to the row nearest 10^6 tets.
+                m = min(rs, key=lambda r: abs(np.log10(max(r["tetrahedra"], 1)) - 6.0))
+                growth = m["kernel_s"]["median"] / a["kernel_s"]["median"]
                 rows.append([f"scaling ({fam})", f"{a['tetrahedra']:,} → {b['tetrahedra']:,} tets",
                              f"BVH {a['bvh_s']:.3f} → {b['bvh_s']:.3f} s; render {_ms(a['kernel_s'])} → "
-                             f"{_ms(b['kernel_s'])} ms"])
+                             f"{_ms(b['kernel_s'])} ms; {growth:.2f}x at {m['tetrahedra']:,} tets"])
     if "sequence" in results:
         s = results["sequence"]
         rows.append(["sequence reuse", f"{len(s['frames'])} parade frames",
