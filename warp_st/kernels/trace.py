@@ -406,6 +406,9 @@ def make_trace(scalar, primitive: str = "prism"):
         # The prism projection of bodies at rest (D = n; every body with infinite c),
         # computed once per ray instead of once per prism test.
         zero = wp.float64(0.0)
+        fin = wp.float64(0.0)
+        if finite != 0:
+            fin = wp.float64(1.0)
         _rest_ok, rest_U, rest_W, rest_Z = prism_frame(nd, dvec3(zero), zero)
         rest_org = dvec3(wp.float64(o[1]), wp.float64(o[2]), wp.float64(o[3]))
         best = s_max
@@ -426,6 +429,17 @@ def make_trace(scalar, primitive: str = "prism"):
             count = cur & LINK_MASK
             next_link = int(-1)
             if count > 0:
+                # The projection for the leaf's first prism's velocity, shared by the
+                # leaf's prisms of the same velocity (leaves hold one body's prisms
+                # but for a few at body boundaries).
+                leaf_v = dvec3(zero)
+                leaf_ok = bool(False)
+                leaf_U = dvec3(zero)
+                leaf_W = dvec3(zero)
+                leaf_Z = dvec3(zero)
+                if wp.static(primitive == "prism"):
+                    leaf_v = prism_v(g, first)
+                    leaf_ok, leaf_U, leaf_W, leaf_Z = prism_frame(nd, leaf_v, fin)
                 for k in range(count):
                     ti = first + k
                     tri = int(-2)
@@ -441,6 +455,9 @@ def make_trace(scalar, primitive: str = "prism"):
                                 h, s, lam = hit_prism_in(g, ti, o, rest_org, rest_U, rest_W, rest_Z, finite, s_min, best)
                             elif finite == 0:
                                 h, s, lam = hit_prism_in(g, ti, o, comoving_origin(g, ti, o, v), rest_U, rest_W, rest_Z, finite, s_min, best)
+                            elif v[0] == leaf_v[0] and v[1] == leaf_v[1] and v[2] == leaf_v[2]:
+                                if leaf_ok:
+                                    h, s, lam = hit_prism_in(g, ti, o, comoving_origin(g, ti, o, v), leaf_U, leaf_W, leaf_Z, finite, s_min, best)
                             else:
                                 h, s, lam = hit_prism(g, ti, o, nd, ud, wd, finite, s_min, best)
                         else:
