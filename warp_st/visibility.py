@@ -11,8 +11,9 @@ h(t) = |m(t) - c| + t is convex; for |v| < 1 it is strictly increasing, so (1) i
 one interval whose ends solve |w + v tau| = K - tau (a quadratic in tau = t - t_ref).
 For |v| >= 1 (decoupled, superluminal) we keep the convex set {h <= t_c + rho}, the
 interval between the quadratic's roots. Shadow rays start at hit events, so with
-lights the window also covers everything the hit events' lightcones can reach: the
-same bound with the camera replaced by the ball holding every hit event.
+lights the window also covers everything the hit events' shadow rays can reach,
+bounded per frame (within a budget) and per visible body: a ball around each visible
+body's swept ball stands for its hit events (``_extend_for_shadows``).
 
 The windows are conservative: a wider window only adds exact geometry, so clipping
 never changes an image. A body's window is a union of disjoint intervals: frames far
@@ -147,13 +148,35 @@ def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bo
         direct.append(row)
     out = [None] * len(scene.bodies)
     for group in _camera_groups(cameras, direct):
-        windows = [None] * len(scene.bodies)
-        for c in group:
-            windows = [hull(w, d) for w, d in zip(windows, direct[c])]
-        group_cams = [cam for c in group for cam in ends[c]]
-        for i, win in enumerate(_extended(scene, balls, windows, group_cams, infinite, max_depth)):
-            out[i] = union(out[i], win)
+        for part in _extension_parts(scene, group):
+            windows = [None] * len(scene.bodies)
+            for c in part:
+                windows = [hull(w, d) for w, d in zip(windows, direct[c])]
+            part_cams = [cam for c in part for cam in ends[c]]
+            for i, win in enumerate(_extended(scene, balls, windows, part_cams, infinite, max_depth)):
+                out[i] = union(out[i], win)
     return out
+
+
+#: Largest cameras x bodies x lights for which shadow (and mirror) windows are widened
+#: frame by frame rather than once per group of frames.
+_PER_FRAME_BUDGET = 20000
+
+
+def _extension_parts(scene, group) -> list[list[int]]:
+    """How a group's windows are widened for shadows and mirrors: frame by frame, or
+    all at once. The widening grows with the hit events' span in time and space, and a
+    body seen in every frame (a floor) links the group's frames: widened all at once, a
+    lit group of frames 100 apart would extrude everything in between. Frame by frame
+    each gets what its own hit events can reach (a subset of the group's: the
+    widening is monotone), at the cost of one widening per frame; past
+    _PER_FRAME_BUDGET the group is widened at once."""
+    if len(group) == 1 or not (scene.lights or any(
+            s.material.metallic > 0.0 for b in scene.bodies for s in b.surfaces)):
+        return [group]
+    if len(group) * len(scene.bodies) * max(1, len(scene.lights)) > _PER_FRAME_BUDGET:
+        return [group]
+    return [[c] for c in group]
 
 
 def _camera_groups(cameras, direct) -> list[list[int]]:
@@ -185,16 +208,17 @@ def _extended(scene, balls, windows, cameras, infinite, max_depth) -> list:
 
     out = []
     for body, win in zip(scene.bodies, windows):
-        if win is None:
-            out.append(None)
-            continue
-        # Rounding room only: float64 keeps 1e-16 relative, so 1e-12 of the absolute
-        # time plus 1e-6 of the window's length (a pad of 1e-6 |t| doubled the
-        # database at t = 1e6).
-        pad = 1e-12 * (1.0 + max(abs(win[0]), abs(win[1]))) + 1e-6 * (win[1] - win[0])
-        lo = max(win[0] - pad, body.lifetime[0])
-        hi = min(win[1] + pad, body.lifetime[1])
-        out.append((float(lo), float(hi)) if lo < hi else None)
+        parts = None
+        for w_lo, w_hi in intervals(win):
+            # Rounding room only: float64 keeps 1e-16 relative, so 1e-12 of the absolute
+            # time plus 1e-6 of the window's length (a pad of 1e-6 |t| doubled the
+            # database at t = 1e6).
+            pad = 1e-12 * (1.0 + max(abs(w_lo), abs(w_hi))) + 1e-6 * (w_hi - w_lo)
+            lo = max(w_lo - pad, body.lifetime[0])
+            hi = min(w_hi + pad, body.lifetime[1])
+            if lo < hi:
+                parts = union(parts, (float(lo), float(hi)))
+        out.append(parts)
     return out
 
 
@@ -234,50 +258,77 @@ def _extend_for_mirrors(scene, balls, windows, cameras, mirrors, max_depth):
 def _extend_for_shadows(scene, balls, windows, *, infinite):
     """Widen the windows to cover shadow rays leaving any possible hit event.
 
-    Hit events H have t_H in [T_lo, T_hi] and x_H in a ball (C, R) (the swept balls
-    of every visible body). A shadow ray towards a distant light l conserves the
-    phase t + x.l along its null line; towards a point light L it lies on the future
-    lightcone of the emission event, so psi = t - |x - L| is conserved. An occluder
-    is thus reachable only while its phase (or psi) is within the range the hit
-    events produce, and not after T_hi. Both are monotone in t for |v| < 1; a body
-    moving at |v| >= 1 keeps the bound of a camera anywhere in the hit ball.
+    Hit events H on a body B have t_H in B's window [T_lo, T_hi] and x_H in a ball
+    (C, R) holding B's swept ball over it. A shadow ray towards a distant light l
+    conserves the phase t + x.l along its null line; towards a point light L it lies
+    on the future lightcone of the emission event, so psi = t - |x - L| is conserved.
+    An occluder is thus reachable only while its phase (or psi) is within the range
+    B's hit events produce, and not after T_hi. Both are monotone in t for |v| < 1; a
+    body moving at |v| >= 1 keeps the bound of a camera anywhere in the hit ball.
+
+    The bound is taken per visible body B and per light, and the occluder's window
+    is the union of those intervals: one ball around every visible body at once
+    (bodies far apart: a floor near the camera and bodies at 0.9c a thousand time
+    units later) would let every occluder reach back across the whole span. Past
+    _PAIR_BUDGET body pairs the visible bodies share one ball (cheaper, wider).
     """
-    lows, highs = [], []
+    hit_bodies = [i for i, w in enumerate(windows) if w is not None]
+    if len(hit_bodies) * len(scene.bodies) * max(1, len(scene.lights)) > _PAIR_BUDGET:
+        sources = [_hit_ball(scene, balls, windows, hit_bodies)]
+    else:
+        sources = [_hit_ball(scene, balls, windows, [i]) for i in hit_bodies]
+    out = []
     for body, (m0, rho), win in zip(scene.bodies, balls, windows):
-        if win is None:
-            continue
-        for t in win:
+        parts = win
+        for hit_centre, hit_radius, t_lo, t_hi in sources:
+            for part in _occluder_windows(scene, body, m0, rho, hit_centre, hit_radius, t_lo, t_hi, infinite):
+                parts = union(parts, part)
+        out.append(parts)
+    return out
+
+
+#: Largest visible bodies x bodies x lights for which shadow windows are bounded per
+#: visible body (each bound is a root solve in Python).
+_PAIR_BUDGET = 20000
+
+
+def _hit_ball(scene, balls, windows, bodies):
+    """(centre, radius, t_lo, t_hi): a ball holding the swept balls of ``bodies`` over
+    their windows, and the windows' time span."""
+    lows, highs = [], []
+    for i in bodies:
+        m0, rho = balls[i]
+        body = scene.bodies[i]
+        for t in windows[i]:
             centre = m0 + body.velocity * (t - body.reference_time)
             lows.append(centre - rho)
             highs.append(centre + rho)
     box_lo, box_hi = np.min(lows, axis=0), np.max(highs, axis=0)
-    hit_centre = 0.5 * (box_lo + box_hi)
-    hit_radius = 0.5 * float(np.linalg.norm(box_hi - box_lo))
-    t_lo = min(w[0] for w in windows if w is not None)
-    t_hi = max(w[1] for w in windows if w is not None)
+    return (0.5 * (box_lo + box_hi), 0.5 * float(np.linalg.norm(box_hi - box_lo)),
+            min(windows[i][0] for i in bodies), max(windows[i][1] for i in bodies))
+
+
+def _occluder_windows(scene, body, m0, rho, hit_centre, hit_radius, t_lo, t_hi, infinite):
+    """Intervals of lab time in which ``body`` can occlude a shadow ray from a hit event
+    in the ball (hit_centre, hit_radius) at t in [t_lo, t_hi] (one per light)."""
+    v = np.asarray(body.velocity, dtype=np.float64)
+    if infinite:
+        return [(t_lo - rho, t_hi + rho)]
+    if float(np.linalg.norm(v)) >= 1.0:
+        fat = rho + hit_radius
+        return [frame_window(m0, fat, v, body.reference_time, t_c, hit_centre) for t_c in (t_lo, t_hi)]
+    centre_at = lambda t: m0 + v * (t - body.reference_time)  # noqa: E731
     out = []
-    for body, (m0, rho), win in zip(scene.bodies, balls, windows):
-        v = np.asarray(body.velocity, dtype=np.float64)
-        if infinite:
-            win = hull(win, (t_lo - rho, t_hi + rho))
-        elif float(np.linalg.norm(v)) >= 1.0:
-            fat = rho + hit_radius
-            for t_c in (t_lo, t_hi):
-                win = hull(win, frame_window(m0, fat, v, body.reference_time, t_c, hit_centre))
+    for light in scene.lights:
+        if light.kind == "distant":
+            l = np.asarray(light.direction, dtype=np.float64)
+            phase = lambda t: t + float(centre_at(t) @ l)  # noqa: E731
+            k_lo = t_lo + float(hit_centre @ l) - hit_radius - rho
         else:
-            centre_at = lambda t: m0 + v * (t - body.reference_time)  # noqa: E731
-            for light in scene.lights:
-                if light.kind == "distant":
-                    l = np.asarray(light.direction, dtype=np.float64)
-                    phase = lambda t: t + float(centre_at(t) @ l)  # noqa: E731
-                    k_lo = t_lo + float(hit_centre @ l) - hit_radius - rho
-                else:
-                    L = np.asarray(light.position, dtype=np.float64)
-                    phase = lambda t: t - float(np.linalg.norm(centre_at(t) - L))  # noqa: E731
-                    k_lo = t_lo - float(np.linalg.norm(hit_centre - L)) - hit_radius - rho
-                lo = _solve_increasing(phase, k_lo, t_lo)
-                win = hull(win, (lo, t_hi + rho))
-        out.append(win)
+            L = np.asarray(light.position, dtype=np.float64)
+            phase = lambda t: t - float(np.linalg.norm(centre_at(t) - L))  # noqa: E731
+            k_lo = t_lo - float(np.linalg.norm(hit_centre - L)) - hit_radius - rho
+        out.append((_solve_increasing(phase, k_lo, t_lo), t_hi + rho))
     return out
 
 
