@@ -324,12 +324,49 @@ def _occluder_windows(scene, body, m0, rho, hit_centre, hit_radius, t_lo, t_hi, 
             l = np.asarray(light.direction, dtype=np.float64)
             phase = lambda t: t + float(centre_at(t) @ l)  # noqa: E731
             k_lo = t_lo + float(hit_centre @ l) - hit_radius - rho
+            axis = l
         else:
             L = np.asarray(light.position, dtype=np.float64)
             phase = lambda t: t - float(np.linalg.norm(centre_at(t) - L))  # noqa: E731
             k_lo = t_lo - float(np.linalg.norm(hit_centre - L)) - hit_radius - rho
-        out.append((_solve_increasing(phase, k_lo, t_lo), t_hi + rho))
+            axis = L - hit_centre
+        window = (_solve_increasing(phase, k_lo, t_lo), t_hi + rho)
+        near = _near_axis_window(m0, v, body.reference_time, hit_centre, axis, hit_radius + rho)
+        if near is not None:  # else the body never comes near the shadow rays
+            lo, hi = max(window[0], near[0]), min(window[1], near[1])
+            if lo <= hi:
+                out.append((lo, hi))
     return out
+
+
+def _near_axis_window(m0, v, t_ref, centre, axis, radius):
+    """Lab times at which a ball moving as m0 + v (t - t_ref) comes within ``radius``
+    of the line through ``centre`` along ``axis`` (None: never; (-inf, inf): always).
+
+    A shadow ray leaves a hit event within R of the hit ball's centre C towards the
+    light: along the light's direction l (distant light), or on the segment to the
+    light L, which lies within R of the line C L. Every point of it is thus within R
+    of the line through C along l (or towards L), and an occluder of radius rho that
+    blocks it comes within R + rho of that line: the squared distance, a quadratic in
+    t, is at most (R + rho)^2 between its roots.
+    """
+    n = float(np.linalg.norm(axis))
+    if not np.isfinite(n) or n == 0.0:
+        return (-np.inf, np.inf)  # the light inside the hit ball: no direction to bound by
+    l = np.asarray(axis, dtype=np.float64) / n
+    d0 = np.asarray(m0, dtype=np.float64) - centre
+    p0 = d0 - (d0 @ l) * l
+    pv = v - (v @ l) * l
+    r2 = radius * radius * (1.0 + 1e-9) + 1e-12
+    a, b, c = float(pv @ pv), 2.0 * float(p0 @ pv), float(p0 @ p0) - r2
+    if a <= 1e-24:  # moving along the line (or at rest): the distance never changes
+        return (-np.inf, np.inf) if c <= 0.0 else None
+    disc = b * b - 4.0 * a * c
+    if disc < 0.0:
+        return None
+    q = -0.5 * (b + np.copysign(np.sqrt(disc), b))
+    roots = sorted([q / a, c / q]) if q != 0.0 else [0.0, 0.0]
+    return (t_ref + roots[0], t_ref + roots[1])
 
 
 def _solve_increasing(f, target: float, guess: float) -> float:
