@@ -317,20 +317,22 @@ def _occluder_windows(scene, body, m0, rho, hit_centre, hit_radius, t_lo, t_hi, 
     if float(np.linalg.norm(v)) >= 1.0:
         fat = rho + hit_radius
         return [frame_window(m0, fat, v, body.reference_time, t_c, hit_centre) for t_c in (t_lo, t_hi)]
-    centre_at = lambda t: m0 + v * (t - body.reference_time)  # noqa: E731
+    t_ref = body.reference_time
     out = []
     for light in scene.lights:
         if light.kind == "distant":
+            # phase t + x(t).l = k is linear in t: t (1 + v.l) = k - m0.l + (v.l) t_ref.
             l = np.asarray(light.direction, dtype=np.float64)
-            phase = lambda t: t + float(centre_at(t) @ l)  # noqa: E731
             k_lo = t_lo + float(hit_centre @ l) - hit_radius - rho
+            lo = (k_lo - float(m0 @ l) + float(v @ l) * t_ref) / (1.0 + float(v @ l))
+            lo -= 1e-12 * (1.0 + abs(lo)) / (1.0 + float(v @ l))  # a lower bound past rounding
             axis = l
         else:
             L = np.asarray(light.position, dtype=np.float64)
-            phase = lambda t: t - float(np.linalg.norm(centre_at(t) - L))  # noqa: E731
             k_lo = t_lo - float(np.linalg.norm(hit_centre - L)) - hit_radius - rho
+            lo = t_ref + _retarded_root(m0 - L, v, k_lo - t_ref)
             axis = L - hit_centre
-        window = (_solve_increasing(phase, k_lo, t_lo), t_hi + rho)
+        window = (lo, t_hi + rho)
         near = _near_axis_window(m0, v, body.reference_time, hit_centre, axis, hit_radius + rho)
         if near is not None:  # else the body never comes near the shadow rays
             lo, hi = max(window[0], near[0]), min(window[1], near[1])
@@ -369,23 +371,23 @@ def _near_axis_window(m0, v, t_ref, centre, axis, radius):
     return (t_ref + roots[0], t_ref + roots[1])
 
 
-def _solve_increasing(f, target: float, guess: float) -> float:
-    """t with f(t) = target for a strictly increasing f (bisection on a grown bracket)."""
-    step = max(1.0, abs(guess) * 1e-3)
-    lo, hi = guess, guess
-    while f(lo) > target:
-        lo -= step
+def _retarded_root(w: np.ndarray, v: np.ndarray, k: float) -> float:
+    """The tau with tau - |w + v tau| = k (|v| < 1: the left side strictly increases).
+
+    Squared: (|v|^2 - 1) tau^2 + 2 (w.v + k) tau + |w|^2 - k^2 = 0, of whose roots the
+    one with tau - k >= 0 that best satisfies the unsquared equation."""
+    a = float(v @ v) - 1.0
+    b = 2.0 * (float(w @ v) + k)
+    c = float(w @ w) - k * k
+    disc = max(b * b - 4.0 * a * c, 0.0)  # >= 0 in exact arithmetic (a < 0 < ... see above)
+    q = -0.5 * (b + np.copysign(np.sqrt(disc), b))
+    roots = [q / a] + ([c / q] if q != 0.0 else [])
+    f = lambda tau: tau - float(np.linalg.norm(w + v * tau))  # noqa: E731
+    tau = min(roots, key=lambda r: abs(f(r) - k))
+    # A lower bound is what the window needs: step down past any rounding (near
+    # |v| = 1 the slope 1 - |v| is small and the root ill-conditioned).
+    step = 1e-12 * (1.0 + abs(tau) + abs(k))
+    while f(tau) > k:
+        tau -= step
         step *= 2.0
-    step = max(1.0, abs(guess) * 1e-3)
-    while f(hi) < target:
-        hi += step
-        step *= 2.0
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if mid == lo or mid == hi:
-            break
-        if f(mid) < target:
-            lo = mid
-        else:
-            hi = mid
-    return lo
+    return tau
