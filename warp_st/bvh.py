@@ -4,8 +4,9 @@
 surface-area heuristic over 4D boxes, split level by level by a Warp kernel (one thread
 per node, see ``kernels/bvh_build.py``). Every node is a contiguous range of a primitive
 order and the two children of a node are stored next to each other, so a node needs
-only its first child. The kernel traces its 4-wide form (bvh_wide.py). (A Morton-code linear BVH built 2x faster but traced 2-3x slower
-on the benchmark scenes, so it was dropped.)
+only its first child. The kernel traces its 4-wide form (bvh_wide.py). (A Morton-code
+linear BVH built 2x faster but traced 2-3x slower on the benchmark scenes, so it was
+dropped.)
 """
 from __future__ import annotations
 

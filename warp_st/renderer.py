@@ -397,9 +397,10 @@ def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fin
     lo, hi = mesh.prim_boxes() if mesh.prim_count else (np.zeros((0, 4)), np.zeros((0, 4)))
     bvh = build_bvh(lo, hi, primitive=primitive)
     if mesh.prim_count == 0:
-        # No geometry: the empty build's root (an inverted box, count 0 = "inner node")
-        # would send a ray through it into node 1, out of bounds, forever. A root box at
-        # t = +inf is never entered by a null ray on a past (or infinite-c) lightcone.
+        # No geometry: the empty build's root is an inverted box. The kernel tests the
+        # root's box before anything else; one at t = +inf is never entered by a null
+        # ray on a past (or infinite-c) lightcone (and bvh_wide.collapse gives one
+        # empty wide node).
         far = np.array([[np.inf, 0.0, 0.0, 0.0]])
         bvh = dataclasses.replace(bvh, node_lo=far, node_hi=far.copy())
     if primitive == "prism":

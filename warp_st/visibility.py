@@ -288,7 +288,7 @@ def _extend_for_shadows(scene, balls, windows, *, infinite):
 
 
 #: Largest visible bodies x bodies x lights for which shadow windows are bounded per
-#: visible body (each bound is a root solve in Python).
+#: visible body (each bound is a few float operations in Python).
 _PAIR_BUDGET = 20000
 
 

@@ -304,7 +304,8 @@ def make_trace(scalar, primitive: str = "prism"):
 
     # min/max as single compare-selects (x86 minss/maxss). wp.min/wp.max guard NaN
     # arguments with a second compare each, which doubled the slab test's cost; the
-    # slab values here are never NaN (safe_inv keeps 1/d finite, boxes are finite).
+    # slab values here are never NaN (safe_inv keeps 1/d finite and non-zero, box
+    # corners are finite or t = +inf).
     @wp.func
     def fmin(a: scalar, b: scalar) -> scalar:
         return wp.where(a < b, a, b)
