@@ -440,7 +440,8 @@ def make_trace(scalar, primitive: str = "prism"):
                 leaf_Z = dvec3(zero)
                 if wp.static(primitive == "prism"):
                     leaf_v = prism_v(g, first)
-                    leaf_ok, leaf_U, leaf_W, leaf_Z = prism_frame(nd, leaf_v, fin)
+                    if finite != 0 and (leaf_v[0] != zero or leaf_v[1] != zero or leaf_v[2] != zero):
+                        leaf_ok, leaf_U, leaf_W, leaf_Z = prism_frame(nd, leaf_v, fin)
                 for k in range(count):
                     ti = first + k
                     tri = int(-2)
