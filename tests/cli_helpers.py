@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
+import time
 from pathlib import Path
 
 from warp_st import exr
@@ -41,3 +43,23 @@ def resume_renders_the_rest(argv: list[str], folder: Path, before: dict[str, byt
     assert len(skipped) == len(before) and len(rendered) == total - len(before), resumed.stdout
     assert all(exr.is_complete_exr(folder / f"seq.{f:04d}.exr") for f in range(total))
     assert all((folder / name).read_bytes() == data for name, data in before.items())
+
+
+def signal_after(argv: list[str], cwd: Path, ready, sig: signal.Signals, timeout: float = 120.0):
+    """Run ``argv`` (a child warp-st), send it ``sig`` once ``ready()`` holds, and return
+    (exit code, stderr). Fails if ``ready()`` never held; the child is killed if it
+    outlives the test."""
+    proc = subprocess.Popen(argv, env=child_env(), cwd=str(cwd), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and not ready():
+            time.sleep(0.005)
+        assert ready(), "the child never got far enough to be interrupted"
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=timeout)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    return proc.returncode, err

@@ -8,9 +8,7 @@ USD); the file starts three, and two command lines start their own (about 15 s i
 import logging
 import os
 import signal
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import distributed
@@ -19,7 +17,7 @@ import pytest
 import warp_st
 from warp_st import exr, farm, sequence
 
-from cli_helpers import child_env, no_temp_files, resume_renders_the_rest
+from cli_helpers import no_temp_files, resume_renders_the_rest, signal_after
 
 ROOT = Path(__file__).resolve().parents[1]
 PARADE = ROOT / "usd_scenes" / "relativistic_parade.usda"
@@ -164,19 +162,8 @@ def test_cli_interrupt_then_resume_on_workers(tmp_path):
     file is left); --resume then renders exactly the missing frames."""
     argv = [sys.executable, "-m", "warp_st", "render", str(PARADE), "-o", "seq.####.exr", "--frames", "0-39",
             "--width", "96", "--height", "54", "--workers", "2"]
-    proc = subprocess.Popen(argv, env=child_env(), cwd=str(tmp_path), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and not list(tmp_path.glob("seq.*.exr")):
-            time.sleep(0.005)
-        proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=120)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.returncode == 130, err
+    code, err = signal_after(argv, tmp_path, lambda: bool(list(tmp_path.glob("seq.*.exr"))), signal.SIGINT)
+    assert code == 130, err
     (line,) = err.splitlines()
     assert line.startswith("warp-st: interrupted; frames complete: ") and "--resume" in line, line
     listed = _frames_in(line.split("frames complete: ")[1].split(" (")[0])

@@ -40,7 +40,7 @@ from warp_st.film import Image
 from warp_st.renderer import Renderer
 from warp_st.scene import SceneError
 
-from cli_helpers import child_env, no_temp_files, one_line, resume_renders_the_rest
+from cli_helpers import child_env, no_temp_files, one_line, resume_renders_the_rest, signal_after
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -345,20 +345,8 @@ def test_sigterm_mid_sequence_then_resume(scene_file, tmp_path):
     pattern = tmp_path / "seq.####.exr"
     argv = [sys.executable, "-m", "warp_st", "render", str(scene_file), "-o", str(pattern), "--frames", "0-40",
             "--width", "640", "--height", "480"]
-    proc = subprocess.Popen(argv, env=child_env(), cwd=str(tmp_path), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and not (tmp_path / "seq.0000.exr").exists():
-            time.sleep(0.005)
-        assert (tmp_path / "seq.0000.exr").exists(), "no frame was written"
-        proc.send_signal(signal.SIGTERM)
-        _, err = proc.communicate(timeout=120)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.returncode == 143, err
+    code, err = signal_after(argv, tmp_path, (tmp_path / "seq.0000.exr").exists, signal.SIGTERM)
+    assert code == 143, err
     line = one_line(err)
     assert "terminated by SIGTERM" in line and "frames complete: 0" in line and "--resume" in line, line
     written = sorted(p for p in tmp_path.glob("seq.*.exr"))

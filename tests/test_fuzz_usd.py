@@ -30,14 +30,12 @@ from __future__ import annotations
 
 import contextlib
 import faulthandler
-import io
 import json
 import math
 import os
 import random
 import subprocess
 import sys
-import textwrap
 import warnings
 from pathlib import Path
 
