@@ -45,7 +45,8 @@ def test_wide_tree_has_the_binary_leaves_once(n):
     for first, count in leaves:
         covered[first:first + count] += 1
     assert (covered == 1).all()
-    assert wide.depth <= (bvh.depth + 1) // 2 + 1
+    # Two binary levels per wide level: the traversal stack is sized by this bound.
+    assert wide.depth <= (bvh.depth + 1) // 2
 
 
 def test_wide_boxes_are_the_binary_boxes_axis_major():

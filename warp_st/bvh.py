@@ -21,9 +21,11 @@ __all__ = ["FlatBVH", "build_bvh", "LEAF_SIZE", "MAX_DEPTH"]
 LEAF_SIZE = 4
 #: Largest primitive count in a SAH leaf (a leaf is made when the SAH says it is cheaper).
 SAH_MAX_LEAF = 4
-#: SAH costs: a node visit (two 4D box tests) against one primitive test, per primitive
-#: kind (tuned on the benchmark scenes: a float64 tetrahedron test costs about two node
-#: visits, with leaves of at most 4; a prism's comoving triangle test about one).
+#: SAH costs: a node visit against one primitive test, per primitive kind (tuned on the
+#: benchmark scenes with the binary traversal: a float64 tetrahedron test costs about two
+#: node visits, a prism's comoving triangle test about one; with the 4-wide traversal,
+#: prism costs from 0.5 to 3 left the visits per ray of the parade and aberration
+#: static copies unchanged).
 SAH_COST_TRAVERSE = 1.0
 SAH_COST_INTERSECT = {"tet": 2.0, "prism": 1.0}
 #: Below this depth the SAH builder splits freely; deeper nodes are halved, so the

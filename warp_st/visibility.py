@@ -171,8 +171,7 @@ def _extension_parts(scene, group) -> list[list[int]]:
     each gets what its own hit events can reach (a subset of the group's: the
     widening is monotone), at the cost of one widening per frame; past
     _PER_FRAME_BUDGET the group is widened at once."""
-    if len(group) == 1 or not (scene.lights or any(
-            s.material.metallic > 0.0 for b in scene.bodies for s in b.surfaces)):
+    if len(group) == 1 or not (scene.lights or _mirror_bodies(scene)):
         return [group]
     if len(group) * len(scene.bodies) * max(1, len(scene.lights)) > _PER_FRAME_BUDGET:
         return [group]
@@ -199,7 +198,7 @@ def _camera_groups(cameras, direct) -> list[list[int]]:
 
 def _extended(scene, balls, windows, cameras, infinite, max_depth) -> list:
     """One group's windows widened for mirrors and shadows, padded, clipped to lifetimes."""
-    mirrors = [i for i, b in enumerate(scene.bodies) if any(s.material.metallic > 0.0 for s in b.surfaces)]
+    mirrors = _mirror_bodies(scene)
     if mirrors and max_depth > 0 and not infinite and any(w is not None for w in windows):
         windows = _extend_for_mirrors(scene, balls, windows, cameras, mirrors, max_depth)
 
@@ -220,6 +219,11 @@ def _extended(scene, balls, windows, cameras, infinite, max_depth) -> list:
                 parts = union(parts, (float(lo), float(hi)))
         out.append(parts)
     return out
+
+
+def _mirror_bodies(scene) -> list[int]:
+    """Indices of the bodies with a metallic (mirror) surface."""
+    return [i for i, b in enumerate(scene.bodies) if any(s.material.metallic > 0.0 for s in b.surfaces)]
 
 
 def _extend_for_mirrors(scene, balls, windows, cameras, mirrors, max_depth):
