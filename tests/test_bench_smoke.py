@@ -65,3 +65,25 @@ def test_bench_trace_quick_compares_every_tracer(tmp_path, capsys):
     assert "static ours, prisms Mrays/s 1 thr" in text and "static wp.Mesh Mrays/s 1 thr" in text
     sanity = [line for line in text.splitlines() if line.startswith("- ") and "hit/miss agree" in line]
     assert len(sanity) >= 4 and all(line.endswith("OK") for line in sanity), sanity
+
+
+def test_bench_bands_splits_the_static_comparison_by_band(capsys):
+    """``examples/benchmarks/bench_bands.py`` times our tracer and wp.Mesh band by band on
+    the same static rays; it refuses (raises) where the two disagree on which rays hit,
+    so a table means hit/miss agreed on every ray. Times are only checked to exist."""
+    import importlib.util
+    import math
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "benchmarks" / "bench_bands.py"
+    spec = importlib.util.spec_from_file_location("bench_bands_smoke", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert module.main(["--scene", "flanges", "--width", "64", "--height", "36", "--bands", "3", "--runs", "1"]) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ") and line[2].isdigit()]
+    assert len(rows) == 3
+    for row in rows:
+        ours, mesh = (float(x) for x in row.split("|")[2:4])
+        assert math.isfinite(ours) and math.isfinite(mesh) and ours > 0 and mesh > 0
+    hits = [float(row.split("|")[5]) for row in rows]
+    assert max(hits) > 0.0, "the mirror scene's rays hit something"

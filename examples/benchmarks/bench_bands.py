@@ -1,0 +1,115 @@
+"""Where a static scene's tracing time goes, band by band (a benchmark: it asserts nothing).
+
+The image is cut into horizontal bands; for each band the same primary rays of the
+static copy (every body at rest, as in ``bench_trace.py``) go through our prism tracer
+(the ``cast_rays`` probe) and through Warp's ``wp.Mesh`` + ``mesh_query_ray``, one
+whole-band launch at a time on one thread. Printed per band: nanoseconds per ray (median
+of ``--runs``), the ratio, the fraction of rays that hit, and our wide BVH nodes
+visited per ray. Bands of sky (rays that miss the database's box) show the fixed cost
+per ray; bands of near geometry show the traversal.
+
+    python3 examples/benchmarks/bench_bands.py                  # the parade, 640x360, 10 bands
+    python3 examples/benchmarks/bench_bands.py --scene flanges --bands 6 --runs 9
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import bench_trace as bt  # noqa: E402
+
+
+def parse_args(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--scene", default="parade", choices=["parade", *bt.SHIPPED], help="scene (default parade)")
+    p.add_argument("--width", type=int, default=640)
+    p.add_argument("--height", type=int, default=360)
+    p.add_argument("--bands", type=int, default=10, help="horizontal bands (default 10)")
+    p.add_argument("--runs", type=int, default=15, help="timed launches per band and tracer (default 15)")
+    return p.parse_args(argv)
+
+
+def band_table(scene, width, height, bands, runs):
+    """Rows (band, ours ns/ray, wp.Mesh ns/ray, hit fraction, wide visits/ray)."""
+    import warp as wp
+
+    from warp_st.kernels import get_kernels
+    from warp_st.renderer import Renderer, _warp
+    from warp_st.visibility import visibility_windows
+
+    _warp()
+    cam = Renderer(scene, frames=[0], width=16, height=9)._cameras[0]
+    sscene = bt.static_version(scene)
+    windows = visibility_windows(sscene, [cam], infinite=False)
+    origin = np.array([cam.time, *cam.position], dtype=np.float64)
+    k = get_kernels("float32", "prism")
+    geo, _mesh, _bvh, _ = bt._our_tracer(k, sscene, windows, "prism", origin)
+    dirs64 = bt.pixel_directions(cam, width, height)
+    n = len(dirs64)
+    dirs = wp.array(dirs64.astype(np.float32), dtype=wp.vec3, device="cpu")
+    o4 = wp.zeros(n, dtype=wp.vec4, device="cpu")
+    prim = wp.zeros(n, dtype=wp.int32, device="cpu")
+    s = wp.zeros(n, dtype=wp.float32, device="cpu")
+    visits = wp.zeros(n, dtype=wp.int32, device="cpu")
+    pts, tris = bt.scene_triangles(sscene, windows)
+    wmesh = wp.Mesh(
+        points=wp.array((pts - cam.position).astype(np.float32), dtype=wp.vec3, device="cpu"),
+        indices=wp.array(tris.reshape(-1).astype(np.int32), dtype=wp.int32, device="cpu"),
+    )
+    mk = bt.mesh_kernel()
+    o3 = wp.zeros(n, dtype=wp.vec3, device="cpu")
+    face = wp.zeros(n, dtype=wp.int32, device="cpu")
+    t_hit = wp.zeros(n, dtype=wp.float32, device="cpu")
+
+    def ours(a, b):
+        wp.launch(k.cast_rays, dim=b - a, inputs=[geo, o4[a:b], dirs[a:b], 1, prim[a:b], s[a:b], visits[a:b]], device="cpu")
+
+    def theirs(a, b):
+        wp.launch(mk, dim=b - a, inputs=[wmesh.id, o3[a:b], dirs[a:b], 1.0e30, face[a:b], t_hit[a:b]], device="cpu")
+
+    def ns_per_ray(fn, a, b):
+        times = []
+        for _ in range(runs):
+            t0 = time.perf_counter()
+            fn(a, b)
+            times.append(time.perf_counter() - t0)
+        return statistics.median(times) / (b - a) * 1e9
+
+    ours(0, n)  # warm-up: compile or load, first touch
+    theirs(0, n)
+    rows = []
+    for band in range(bands):
+        a = band * height // bands * width
+        b = (band + 1) * height // bands * width
+        if b <= a:
+            continue
+        x, y = ns_per_ray(ours, a, b), ns_per_ray(theirs, a, b)
+        hit = prim.numpy()[a:b] >= 0
+        if not np.array_equal(hit, face.numpy()[a:b] >= 0):
+            raise RuntimeError(f"band {band}: our tracer and wp.Mesh disagree on which rays hit")
+        rows.append((band, x, y, float(hit.mean()), float(visits.numpy()[a:b].mean())))
+    return rows
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    import warp_st
+
+    scene = bt.load_parade() if args.scene == "parade" else warp_st.load(str(bt.ROOT / bt.SHIPPED[args.scene]))
+    rows = band_table(scene, args.width, args.height, args.bands, args.runs)
+    print(f"{args.scene} static copy, {args.width}x{args.height}, {args.bands} bands, median of {args.runs}, 1 thread")
+    print("| band | ours ns/ray | wp.Mesh ns/ray | ours / wp.Mesh speed | hits | wide visits/ray |")
+    print("|---|---|---|---|---|---|")
+    for band, x, y, hit, vis in rows:
+        print(f"| {band} | {x:.1f} | {y:.1f} | {y / x:.2f} | {hit:.2f} | {vis:.2f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
