@@ -10,6 +10,11 @@ per ray; bands of near geometry show the traversal.
 
     python3 examples/benchmarks/bench_bands.py                  # the parade, 640x360, 10 bands
     python3 examples/benchmarks/bench_bands.py --scene flanges --bands 6 --runs 9
+
+``--only ours|mesh --band B`` launches one tracer on one band ``--runs`` times and
+prints nothing else, for hardware counters: the difference of two runs of ``perf stat
+-e instructions,cycles`` with different ``--runs`` is the cost of the extra launches
+alone (set-up cancels).
 """
 from __future__ import annotations
 
@@ -32,11 +37,15 @@ def parse_args(argv=None):
     p.add_argument("--height", type=int, default=360)
     p.add_argument("--bands", type=int, default=10, help="horizontal bands (default 10)")
     p.add_argument("--runs", type=int, default=15, help="timed launches per band and tracer (default 15)")
+    p.add_argument("--only", choices=["ours", "mesh"], help="launch only this tracer, on --band (for perf stat)")
+    p.add_argument("--band", type=int, default=0, help="the band --only launches (default 0)")
     return p.parse_args(argv)
 
 
-def band_table(scene, width, height, bands, runs):
-    """Rows (band, ours ns/ray, wp.Mesh ns/ray, hit fraction, wide visits/ray)."""
+def tracers(scene, width, height):
+    """The static copy's primary rays through both tracers: (rays, ours(a, b),
+    wp_mesh(a, b), outputs). ``ours``/``wp_mesh`` launch on rays [a, b); outputs holds
+    our hit primitive and nodes visited and wp.Mesh's hit face, per ray."""
     import warp as wp
 
     from warp_st.kernels import get_kernels
@@ -73,6 +82,17 @@ def band_table(scene, width, height, bands, runs):
     def theirs(a, b):
         wp.launch(mk, dim=b - a, inputs=[wmesh.id, o3[a:b], dirs[a:b], 1.0e30, face[a:b], t_hit[a:b]], device="cpu")
 
+    return n, ours, theirs, {"prim": prim, "visits": visits, "face": face}
+
+
+def band_range(band, bands, width, height):
+    return band * height // bands * width, (band + 1) * height // bands * width
+
+
+def band_table(scene, width, height, bands, runs):
+    """Rows (band, ours ns/ray, wp.Mesh ns/ray, hit fraction, wide visits/ray)."""
+    n, ours, theirs, out = tracers(scene, width, height)
+
     def ns_per_ray(fn, a, b):
         times = []
         for _ in range(runs):
@@ -85,15 +105,14 @@ def band_table(scene, width, height, bands, runs):
     theirs(0, n)
     rows = []
     for band in range(bands):
-        a = band * height // bands * width
-        b = (band + 1) * height // bands * width
+        a, b = band_range(band, bands, width, height)
         if b <= a:
             continue
         x, y = ns_per_ray(ours, a, b), ns_per_ray(theirs, a, b)
-        hit = prim.numpy()[a:b] >= 0
-        if not np.array_equal(hit, face.numpy()[a:b] >= 0):
+        hit = out["prim"].numpy()[a:b] >= 0
+        if not np.array_equal(hit, out["face"].numpy()[a:b] >= 0):
             raise RuntimeError(f"band {band}: our tracer and wp.Mesh disagree on which rays hit")
-        rows.append((band, x, y, float(hit.mean()), float(visits.numpy()[a:b].mean())))
+        rows.append((band, x, y, float(hit.mean()), float(out["visits"].numpy()[a:b].mean())))
     return rows
 
 
@@ -102,6 +121,14 @@ def main(argv=None) -> int:
     import warp_st
 
     scene = bt.load_parade() if args.scene == "parade" else warp_st.load(str(bt.ROOT / bt.SHIPPED[args.scene]))
+    if args.only:
+        n, ours, theirs, _out = tracers(scene, args.width, args.height)
+        a, b = band_range(args.band, args.bands, args.width, args.height)
+        fn = ours if args.only == "ours" else theirs
+        fn(0, n)  # warm-up
+        for _ in range(args.runs):
+            fn(a, b)
+        return 0
     rows = band_table(scene, args.width, args.height, args.bands, args.runs)
     print(f"{args.scene} static copy, {args.width}x{args.height}, {args.bands} bands, median of {args.runs}, 1 thread")
     print("| band | ours ns/ray | wp.Mesh ns/ray | ours / wp.Mesh speed | hits | wide visits/ray |")
