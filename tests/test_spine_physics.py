@@ -87,13 +87,14 @@ def test_clipping_never_changes_the_image():
 
 
 def test_shadow_windows_per_frame_and_body_are_enough(monkeypatch):
-    """Lit frames far apart get their shadow windows frame by frame and visible body by
-    visible body, each cut to the times the body is near the shadow rays' axis
-    (visibility._extension_parts, _extend_for_shadows, _near_axis_window). Rendered
-    from that smaller database, each frame equals, bit for bit, its render from a
-    database for every frame in between and from one whose shadow windows use a single
-    ball and no axis bound (both far wider): the retarded shadow of the fast cube on
-    the floor is kept."""
+    """Lit frames far apart get their shadow windows frame by frame and piece by piece of
+    each visible body, each cut to the times the piece is seen and the occluder is near
+    the shadow rays' axis (visibility._extension_parts, _extend_for_shadows,
+    body_pieces, _near_axis_windows). Rendered from that smaller database, each frame
+    equals, bit for bit, its render from a database for every frame in between, from
+    one bounded by a single ball per visible body, and from one whose shadow windows
+    use a single ball for all and no axis bound (all wider): the retarded shadow of the
+    fast cube on the floor is kept."""
     from warp_st import visibility
 
     # The cube passes 6 above the floor's top at 0.8c under a light straight above: at
@@ -109,9 +110,13 @@ def test_shadow_windows_per_frame_and_body_are_enough(monkeypatch):
     dense = Renderer(scene, frames=[float(f) for f in range(0, 49)], width=64, height=48)
     assert sparse.stats.tetrahedra < dense.stats.tetrahedra
     lit = Renderer(_scene(*scene.bodies[1:], lights=scene.lights), frames=[3.0], width=64, height=48).render(3.0)
+    monkeypatch.setattr(visibility, "_MAX_PIECES", 1)  # one ball per visible body
+    per_body = Renderer(scene, frames=frames, width=64, height=48)
+    assert sparse.stats.tetrahedra < per_body.stats.tetrahedra
     monkeypatch.setattr(visibility, "_PER_FRAME_BUDGET", 0)
     monkeypatch.setattr(visibility, "_PAIR_BUDGET", 0)
-    monkeypatch.setattr(visibility, "_near_axis_window", lambda *a: (-np.inf, np.inf))
+    monkeypatch.setattr(visibility, "_near_axis_windows",
+                        lambda m0, v, t_ref, centre, axis, radius: (np.full(len(centre), -np.inf), np.full(len(centre), np.inf)))
     wide = Renderer(scene, frames=frames, width=64, height=48)
     assert sparse.stats.tetrahedra < wide.stats.tetrahedra
     for f in frames:
@@ -119,7 +124,7 @@ def test_shadow_windows_per_frame_and_body_are_enough(monkeypatch):
         assert (a.object_id > 0).any()
         if f == 3.0:  # the shadow is there: the floor is darker than without the cube
             assert (a.rgba[..., :3].sum(-1) < lit.rgba[..., :3].sum(-1) - 1e-3).sum() > 10
-        for b in (dense.render(f), wide.render(f)):
+        for b in (dense.render(f), per_body.render(f), wide.render(f)):
             for name in ("rgba", "depth", "event_time", "object_id"):
                 assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), (f, name)
 

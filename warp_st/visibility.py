@@ -25,10 +25,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .extrude import contraction_matrix
+from .extrude import contraction_matrix, surface_triangles
 from .scene import Body, CameraState, Scene
 
-__all__ = ["body_ball", "frame_window", "hull", "intervals", "union", "span", "visibility_windows"]
+__all__ = ["body_ball", "body_pieces", "frame_window", "hull", "intervals", "union", "intersection", "span",
+           "visibility_windows"]
 
 #: Cap on how far into the past a window may reach when the bound is unbounded
 #: (only for a decoupled body at exactly |v| = 1), in multiples of the scene size.
@@ -43,6 +44,40 @@ def body_ball(body: Body) -> tuple[np.ndarray, float]:
     m0 = 0.5 * (local.min(axis=0) + local.max(axis=0))
     rho = float(np.sqrt(((local - m0) ** 2).sum(axis=1).max()))
     return m0, rho
+
+
+#: Most pieces a body's surface is cut into for the shadow windows (``body_pieces``).
+_MAX_PIECES = 16
+
+
+def body_pieces(body: Body) -> list[tuple[np.ndarray, float]]:
+    """Balls (m0 in the lab at t_ref, rho) that together hold the contracted body: its
+    triangles cut by repeated median splits of the widest piece into up to _MAX_PIECES
+    spatial clusters, each ball holding its triangles' vertices (so their whole
+    triangles). A body with an analytic sphere (re-tessellated at render time) stays
+    one piece, ``body_ball``."""
+    if not body.surfaces or any(s.sphere is not None for s in body.surfaces):
+        return [body_ball(body)]
+    A = contraction_matrix(body.velocity, body.decoupled)
+    tri = np.concatenate([((s.points - body.origin) @ A.T + body.origin)[surface_triangles(s)] for s in body.surfaces])
+    if len(tri) == 0:
+        return [body_ball(body)]
+    pieces = [np.arange(len(tri))]
+    while len(pieces) < _MAX_PIECES:
+        extent = [float(np.ptp(tri[p].reshape(-1, 3), axis=0).max()) if len(p) > 1 else 0.0 for p in pieces]
+        k = int(np.argmax(extent))
+        if extent[k] == 0.0:
+            break
+        p = pieces.pop(k)
+        centre = tri[p].mean(axis=1)
+        order = p[np.argsort(centre[:, int(np.argmax(np.ptp(centre, axis=0)))], kind="stable")]
+        pieces += [order[: len(order) // 2], order[len(order) // 2:]]
+    out = []
+    for p in pieces:
+        pts = tri[p].reshape(-1, 3)
+        m0 = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+        out.append((m0, float(np.sqrt(((pts - m0) ** 2).sum(axis=1).max()))))
+    return out
 
 
 def _solve_h(w: np.ndarray, v: np.ndarray, k: float) -> np.ndarray:
@@ -121,6 +156,18 @@ def union(a, b):
     return tuple((lo, hi) for lo, hi in merged) or None
 
 
+def intersection(a, b):
+    """Intersection of two windows as a tuple of disjoint ascending intervals (None if
+    empty)."""
+    out = []
+    for lo_a, hi_a in intervals(a):
+        for lo_b, hi_b in intervals(b):
+            lo, hi = max(lo_a, lo_b), min(hi_a, hi_b)
+            if lo <= hi:
+                out.append((lo, hi))
+    return union(None, tuple(out)) if out else None
+
+
 def span(window):
     """The smallest single interval holding ``window`` (None if empty)."""
     parts = intervals(window)
@@ -137,6 +184,7 @@ def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bo
     a body is never visible.
     """
     balls = [body_ball(b) for b in scene.bodies]
+    pieces = [body_pieces(b) for b in scene.bodies] if scene.lights else None
     ends = [[cam, cam.advanced(shutter)] if shutter > 0.0 else [cam] for cam in cameras]
     direct = []
     for cam_ends in ends:
@@ -153,7 +201,7 @@ def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bo
             for c in part:
                 windows = [hull(w, d) for w, d in zip(windows, direct[c])]
             part_cams = [cam for c in part for cam in ends[c]]
-            for i, win in enumerate(_extended(scene, balls, windows, part_cams, infinite, max_depth)):
+            for i, win in enumerate(_extended(scene, balls, pieces, windows, part_cams, infinite, max_depth)):
                 out[i] = union(out[i], win)
     return out
 
@@ -196,14 +244,18 @@ def _camera_groups(cameras, direct) -> list[list[int]]:
     return groups
 
 
-def _extended(scene, balls, windows, cameras, infinite, max_depth) -> list:
+def _extended(scene, balls, pieces, windows, cameras, infinite, max_depth) -> list:
     """One group's windows widened for mirrors and shadows, padded, clipped to lifetimes."""
     mirrors = _mirror_bodies(scene)
+    extra = 0.0  # how much earlier than directly the frames may see a body, via mirrors
     if mirrors and max_depth > 0 and not infinite and any(w is not None for w in windows):
-        windows = _extend_for_mirrors(scene, balls, windows, cameras, mirrors, max_depth)
+        extra = 2.0 * max_depth * _mirror_reach(scene, balls, windows, cameras, mirrors)
+        if extra > 0.0:
+            windows = [_seen(body, m0, rho, win, cameras, infinite, extra)
+                       for body, (m0, rho), win in zip(scene.bodies, balls, windows)]
 
     if scene.lights and any(w is not None for w in windows):
-        windows = _extend_for_shadows(scene, balls, windows, infinite=infinite)
+        windows = _extend_for_shadows(scene, balls, pieces, windows, cameras, infinite, extra)
 
     out = []
     for body, win in zip(scene.bodies, windows):
@@ -226,17 +278,18 @@ def _mirror_bodies(scene) -> list[int]:
     return [i for i, b in enumerate(scene.bodies) if any(s.material.metallic > 0.0 for s in b.surfaces)]
 
 
-def _extend_for_mirrors(scene, balls, windows, cameras, mirrors, max_depth):
-    """Widen the windows for light that reached the camera via up to max_depth mirrors.
+def _mirror_reach(scene, balls, windows, cameras, mirrors) -> float:
+    """D_M: how far from the cameras the mirrors' visible events lie (0: none visible).
 
-    A path c -> H1 -> ... -> Hk -> O is at most |O - c| + 2 k D_M long when every
-    mirror event lies within D_M of the camera (each leg is bounded through c by the
-    triangle inequality), so O is seen at a lab time at most 2 k D_M earlier than
-    its direct lightcone crossing: equation (1) with the lower bound lowered by that.
-    D_M is measured over the mirrors' directly visible windows. That is exact for
-    mirrors at rest; for moving mirrors it assumes the mirror events of deeper
-    bounces stay within that reach (re-measuring it after widening compounds
-    geometrically with depth: a 0.5c mirror ball at depth 4 needed 17 M tetrahedra).
+    Light that reached the camera via up to max_depth mirrors travelled a path c -> H1
+    -> ... -> Hk -> O at most |O - c| + 2 k D_M long when every mirror event lies
+    within D_M of the camera (each leg is bounded through c by the triangle
+    inequality), so O is seen at a lab time at most 2 k D_M earlier than its direct
+    lightcone crossing: equation (1) with the lower bound lowered by that. D_M is
+    measured over the mirrors' directly visible windows. That is exact for mirrors at
+    rest; for moving mirrors it assumes the mirror events of deeper bounces stay
+    within that reach (re-measuring it after widening compounds geometrically with
+    depth: a 0.5c mirror ball at depth 4 needed 17 M tetrahedra).
     """
     reach = 0.0
     for i in mirrors:
@@ -248,18 +301,19 @@ def _extend_for_mirrors(scene, balls, windows, cameras, mirrors, max_depth):
             centre = m0 + body.velocity * (t - body.reference_time)
             for cam in cameras:
                 reach = max(reach, float(np.linalg.norm(centre - cam.position)) + rho)
-    if reach == 0.0:
-        return windows
-    out = []
-    for body, (m0, rho), win in zip(scene.bodies, balls, windows):
-        for cam in cameras:
-            win = hull(win, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position,
-                                          extra=2.0 * max_depth * reach))
-        out.append(win)
-    return out
+    return reach
 
 
-def _extend_for_shadows(scene, balls, windows, *, infinite):
+def _seen(body, m0, rho, win, cameras, infinite, extra):
+    """``win`` widened to every time the cameras can see the ball (m0, rho) of ``body``
+    at, through mirrors too (``extra``, see ``_mirror_reach``)."""
+    for cam in cameras:
+        win = hull(win, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position,
+                                     infinite=infinite, extra=extra))
+    return win
+
+
+def _extend_for_shadows(scene, balls, pieces, windows, cameras, infinite, extra):
     """Widen the windows to cover shadow rays leaving any possible hit event.
 
     Hit events H on a body B have t_H in B's window [T_lo, T_hi] and x_H in a ball
@@ -270,30 +324,52 @@ def _extend_for_shadows(scene, balls, windows, *, infinite):
     B's hit events produce, and not after T_hi. Both are monotone in t for |v| < 1; a
     body moving at |v| >= 1 keeps the bound of a camera anywhere in the hit ball.
 
-    The bound is taken per visible body B and per light, and the occluder's window
-    is the union of those intervals: one ball around every visible body at once
-    (bodies far apart: a floor near the camera and bodies at 0.9c a thousand time
-    units later) would let every occluder reach back across the whole span. Past
-    _PAIR_BUDGET body pairs the visible bodies share one ball (cheaper, wider).
+    The bound is taken per piece of each visible body (``body_pieces``: a floor is cut
+    into tiles, each seen over a shorter time and sending its shadow rays along a
+    narrower beam), over the times the frames see that piece, and per light; the
+    occluder's window is the union of those intervals. Past _PAIR_BUDGET piece pairs
+    the bound is per visible body, past it again the visible bodies share one ball
+    (cheaper, wider).
     """
     hit_bodies = [i for i, w in enumerate(windows) if w is not None]
-    if len(hit_bodies) * len(scene.bodies) * max(1, len(scene.lights)) > _PAIR_BUDGET:
-        sources = [_hit_ball(scene, balls, windows, hit_bodies)]
+    pairs = len(scene.bodies) * max(1, len(scene.lights))
+    if len(hit_bodies) * pairs > _PAIR_BUDGET:
+        bounds = [[_hit_ball(scene, balls, windows, hit_bodies)]]
     else:
-        sources = [_hit_ball(scene, balls, windows, [i]) for i in hit_bodies]
+        bounds = [[_hit_ball(scene, balls, windows, [i]) for i in hit_bodies]]
+        if sum(len(pieces[i]) for i in hit_bodies) * pairs <= _PAIR_BUDGET:
+            bounds.append([src for i in hit_bodies
+                           for src in _piece_balls(scene.bodies[i], pieces[i], windows[i], cameras, infinite, extra)])
     out = []
     for body, (m0, rho), win in zip(scene.bodies, balls, windows):
-        parts = win
-        for hit_centre, hit_radius, t_lo, t_hi in sources:
-            for part in _occluder_windows(scene, body, m0, rho, hit_centre, hit_radius, t_lo, t_hi, infinite):
-                parts = union(parts, part)
-        out.append(parts)
+        # Each set of sources bounds the occluder's window on its own: keep what all allow.
+        reach = None
+        for k, sources in enumerate(bounds):
+            parts = _occluder_windows(scene, body, m0, rho, sources, infinite)
+            reach = parts if k == 0 else intersection(reach, parts)
+        out.append(union(win, reach))
     return out
 
 
-#: Largest visible bodies x bodies x lights for which shadow windows are bounded per
-#: visible body (each bound is a few float operations in Python).
+#: Largest (pieces of) visible bodies x bodies x lights for which shadow windows are
+#: bounded piece by piece (or body by body).
 _PAIR_BUDGET = 20000
+
+
+def _piece_balls(body, pieces, window, cameras, infinite, extra):
+    """``_hit_ball`` of each piece of a visible body over the times the cameras see it
+    (within the body's window): (centre, radius, t_lo, t_hi) per piece seen."""
+    out = []
+    lo, hi = span(window)
+    for m0, rho in pieces:
+        seen = _seen(body, m0, rho, None, cameras, infinite, extra)
+        if seen is None or seen[0] > hi or seen[1] < lo:
+            continue
+        t_lo, t_hi = max(seen[0], lo), min(seen[1], hi)
+        ends = [m0 + body.velocity * (t - body.reference_time) for t in (t_lo, t_hi)]
+        box_lo, box_hi = np.minimum(*ends) - rho, np.maximum(*ends) + rho
+        out.append((0.5 * (box_lo + box_hi), 0.5 * float(np.linalg.norm(box_hi - box_lo)), t_lo, t_hi))
+    return out
 
 
 def _hit_ball(scene, balls, windows, bodies):
@@ -312,42 +388,47 @@ def _hit_ball(scene, balls, windows, bodies):
             min(windows[i][0] for i in bodies), max(windows[i][1] for i in bodies))
 
 
-def _occluder_windows(scene, body, m0, rho, hit_centre, hit_radius, t_lo, t_hi, infinite):
-    """Intervals of lab time in which ``body`` can occlude a shadow ray from a hit event
-    in the ball (hit_centre, hit_radius) at t in [t_lo, t_hi] (one per light)."""
+def _occluder_windows(scene, body, m0, rho, sources, infinite):
+    """The lab times in which ``body`` can occlude a shadow ray from a hit event in any
+    of ``sources``, balls (hit_centre, hit_radius) of hit events at t in [t_lo, t_hi]
+    (all sources and lights at once, as arrays), as a window (None: never)."""
+    centre = np.array([src[0] for src in sources], dtype=np.float64).reshape(-1, 3)
+    radius, t_lo, t_hi = (np.array([src[i] for src in sources], dtype=np.float64) for i in (1, 2, 3))
     v = np.asarray(body.velocity, dtype=np.float64)
     if infinite:
-        return [(t_lo - rho, t_hi + rho)]
+        return union(None, tuple(zip((t_lo - rho).tolist(), (t_hi + rho).tolist())))
     if float(np.linalg.norm(v)) >= 1.0:
-        fat = rho + hit_radius
-        return [frame_window(m0, fat, v, body.reference_time, t_c, hit_centre) for t_c in (t_lo, t_hi)]
+        parts = [frame_window(m0, rho + r, v, body.reference_time, t_c, c)
+                 for c, r, lo, hi in zip(centre, radius, t_lo, t_hi) for t_c in (lo, hi)]
+        return union(None, tuple(p for p in parts if p is not None))
     t_ref = body.reference_time
-    out = []
+    los, his = [], []
     for light in scene.lights:
         if light.kind == "distant":
             # phase t + x(t).l = k is linear in t: t (1 + v.l) = k - m0.l + (v.l) t_ref.
             l = np.asarray(light.direction, dtype=np.float64)
-            k_lo = t_lo + float(hit_centre @ l) - hit_radius - rho
+            k_lo = t_lo + centre @ l - radius - rho
             lo = (k_lo - float(m0 @ l) + float(v @ l) * t_ref) / (1.0 + float(v @ l))
-            lo -= 1e-12 * (1.0 + abs(lo)) / (1.0 + float(v @ l))  # a lower bound past rounding
-            axis = l
+            lo -= 1e-12 * (1.0 + np.abs(lo)) / (1.0 + float(v @ l))  # a lower bound past rounding
+            axis = np.broadcast_to(l, centre.shape)
         else:
             L = np.asarray(light.position, dtype=np.float64)
-            k_lo = t_lo - float(np.linalg.norm(hit_centre - L)) - hit_radius - rho
-            lo = t_ref + _retarded_root(m0 - L, v, k_lo - t_ref)
-            axis = L - hit_centre
-        window = (lo, t_hi + rho)
-        near = _near_axis_window(m0, v, body.reference_time, hit_centre, axis, hit_radius + rho)
-        if near is not None:  # else the body never comes near the shadow rays
-            lo, hi = max(window[0], near[0]), min(window[1], near[1])
-            if lo <= hi:
-                out.append((lo, hi))
-    return out
+            k_lo = t_lo - np.linalg.norm(centre - L, axis=1) - radius - rho
+            lo = t_ref + _retarded_roots(m0 - L, v, k_lo - t_ref)
+            axis = L - centre
+        near_lo, near_hi = _near_axis_windows(m0, v, t_ref, centre, axis, radius + rho)
+        los.append(np.maximum(lo, near_lo))
+        his.append(np.minimum(t_hi + rho, near_hi))
+    lo, hi = np.concatenate(los), np.concatenate(his)
+    keep = lo <= hi  # else the body never comes near those shadow rays in time
+    return union(None, tuple(zip(lo[keep].tolist(), hi[keep].tolist())))
 
 
-def _near_axis_window(m0, v, t_ref, centre, axis, radius):
-    """Lab times at which a ball moving as m0 + v (t - t_ref) comes within ``radius``
-    of the line through ``centre`` along ``axis`` (None: never; (-inf, inf): always).
+def _near_axis_windows(m0, v, t_ref, centre, axis, radius):
+    """Lab times (lo, hi) at which a ball moving as m0 + v (t - t_ref) comes within
+    ``radius`` of the line through ``centre`` along ``axis``, per row of ``centre``
+    (S, 3), ``axis`` (S, 3) and ``radius`` (S,), as arrays; lo > hi: never;
+    (-inf, inf): always.
 
     A shadow ray leaves a hit event within R of the hit ball's centre C towards the
     light: along the light's direction l (distant light), or on the segment to the
@@ -356,42 +437,57 @@ def _near_axis_window(m0, v, t_ref, centre, axis, radius):
     blocks it comes within R + rho of that line: the squared distance, a quadratic in
     t, is at most (R + rho)^2 between its roots.
     """
-    n = float(np.linalg.norm(axis))
-    if not np.isfinite(n) or n == 0.0:
-        return (-np.inf, np.inf)  # the light inside the hit ball: no direction to bound by
-    l = np.asarray(axis, dtype=np.float64) / n
+    centre = np.atleast_2d(np.asarray(centre, dtype=np.float64))
+    axis = np.atleast_2d(np.asarray(axis, dtype=np.float64))
+    radius = np.atleast_1d(np.asarray(radius, dtype=np.float64))
+    v = np.asarray(v, dtype=np.float64)
+    n = np.linalg.norm(axis, axis=1)
+    free = ~np.isfinite(n) | (n == 0.0)  # the light inside the hit ball: no direction to bound by
+    l = np.where(free[:, None], 0.0, axis) / np.where(free, 1.0, n)[:, None]
     d0 = np.asarray(m0, dtype=np.float64) - centre
-    p0 = d0 - (d0 @ l) * l
-    pv = v - (v @ l) * l
+    p0 = d0 - np.sum(d0 * l, axis=1)[:, None] * l
+    pv = v - (l @ v)[:, None] * l
     r2 = radius * radius * (1.0 + 1e-9) + 1e-12
-    a, b, c = float(pv @ pv), 2.0 * float(p0 @ pv), float(p0 @ p0) - r2
-    if a <= 1e-24:  # moving along the line (or at rest): the distance never changes
-        return (-np.inf, np.inf) if c <= 0.0 else None
+    a, b, c = np.sum(pv * pv, axis=1), 2.0 * np.sum(p0 * pv, axis=1), np.sum(p0 * p0, axis=1) - r2
     disc = b * b - 4.0 * a * c
-    if disc < 0.0:
-        return None
-    q = -0.5 * (b + np.copysign(np.sqrt(disc), b))
-    roots = sorted([q / a, c / q]) if q != 0.0 else [0.0, 0.0]
-    return (t_ref + roots[0], t_ref + roots[1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = -0.5 * (b + np.copysign(np.sqrt(np.maximum(disc, 0.0)), b))
+        ra, rb = np.where(q != 0.0, q / a, 0.0), np.where(q != 0.0, c / q, 0.0)
+    lo = np.where(disc < 0.0, np.inf, t_ref + np.minimum(ra, rb))
+    hi = np.where(disc < 0.0, -np.inf, t_ref + np.maximum(ra, rb))
+    # Moving along the line (or at rest): the distance never changes.
+    still = a <= 1e-24
+    lo = np.where(still, np.where(c <= 0.0, -np.inf, np.inf), lo)
+    hi = np.where(still, np.where(c <= 0.0, np.inf, -np.inf), hi)
+    return np.where(free, -np.inf, lo), np.where(free, np.inf, hi)
 
 
-def _retarded_root(w: np.ndarray, v: np.ndarray, k: float) -> float:
-    """The tau with tau - |w + v tau| = k (|v| < 1: the left side strictly increases).
+def _retarded_roots(w: np.ndarray, v: np.ndarray, k) -> np.ndarray:
+    """The tau with tau - |w + v tau| = k, per element of ``k`` (|v| < 1: the left side
+    strictly increases), as a lower bound past rounding.
 
     Squared: (|v|^2 - 1) tau^2 + 2 (w.v + k) tau + |w|^2 - k^2 = 0, of whose roots the
-    one with tau - k >= 0 that best satisfies the unsquared equation."""
+    one that best satisfies the unsquared equation."""
+    k = np.atleast_1d(np.asarray(k, dtype=np.float64))
+    w, v = np.asarray(w, dtype=np.float64), np.asarray(v, dtype=np.float64)
     a = float(v @ v) - 1.0
     b = 2.0 * (float(w @ v) + k)
     c = float(w @ w) - k * k
-    disc = max(b * b - 4.0 * a * c, 0.0)  # >= 0 in exact arithmetic (a < 0 < ... see above)
+    disc = np.maximum(b * b - 4.0 * a * c, 0.0)  # >= 0 in exact arithmetic
     q = -0.5 * (b + np.copysign(np.sqrt(disc), b))
-    roots = [q / a] + ([c / q] if q != 0.0 else [])
-    f = lambda tau: tau - float(np.linalg.norm(w + v * tau))  # noqa: E731
-    tau = min(roots, key=lambda r: abs(f(r) - k))
+
+    def f(tau):
+        return tau - np.linalg.norm(w[None] + tau[:, None] * v[None], axis=1)
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        first, second = q / a, np.where(q != 0.0, c / q, q / a)
+    tau = np.where(np.abs(f(second) - k) < np.abs(f(first) - k), second, first)
     # A lower bound is what the window needs: step down past any rounding (near
     # |v| = 1 the slope 1 - |v| is small and the root ill-conditioned).
-    step = 1e-12 * (1.0 + abs(tau) + abs(k))
-    while f(tau) > k:
-        tau -= step
-        step *= 2.0
+    step = 1e-12 * (1.0 + np.abs(tau) + np.abs(k))
+    high = f(tau) > k
+    while high.any():
+        tau = np.where(high, tau - step, tau)
+        step = step * 2.0
+        high = f(tau) > k
     return tau
