@@ -12,8 +12,9 @@ one interval whose ends solve |w + v tau| = K - tau (a quadratic in tau = t - t_
 For |v| >= 1 (decoupled, superluminal) we keep the convex set {h <= t_c + rho}, the
 interval between the quadratic's roots. Shadow rays start at hit events, so with
 lights the window also covers everything the hit events' shadow rays can reach,
-bounded per frame (within a budget) and per visible body: a ball around each visible
-body's swept ball stands for its hit events (``_extend_for_shadows``).
+bounded per frame (within a budget) and per piece of each visible body: the swept ball
+of each piece over the times the frames see it stands for its hit events
+(``body_pieces``, ``_extend_for_shadows``).
 
 The windows are conservative: a wider window only adds exact geometry, so clipping
 never changes an image. A body's window is a union of disjoint intervals: frames far
