@@ -367,26 +367,29 @@ def _piece_balls(body, pieces, window, cameras, infinite, extra):
         if seen is None or seen[0] > hi or seen[1] < lo:
             continue
         t_lo, t_hi = max(seen[0], lo), min(seen[1], hi)
-        ends = [m0 + body.velocity * (t - body.reference_time) for t in (t_lo, t_hi)]
-        box_lo, box_hi = np.minimum(*ends) - rho, np.maximum(*ends) + rho
-        out.append((0.5 * (box_lo + box_hi), 0.5 * float(np.linalg.norm(box_hi - box_lo)), t_lo, t_hi))
+        out.append((*_ball_around([(body, m0, rho, (t_lo, t_hi))]), t_lo, t_hi))
     return out
 
 
 def _hit_ball(scene, balls, windows, bodies):
     """(centre, radius, t_lo, t_hi): a ball holding the swept balls of ``bodies`` over
     their windows, and the windows' time span."""
+    centre, radius = _ball_around([(scene.bodies[i], *balls[i], windows[i]) for i in bodies])
+    return centre, radius, min(windows[i][0] for i in bodies), max(windows[i][1] for i in bodies)
+
+
+def _ball_around(swept) -> tuple[np.ndarray, float]:
+    """(centre, radius) of a ball holding every ball (m0, rho) of ``body`` swept over
+    (t_lo, t_hi), for each (body, m0, rho, (t_lo, t_hi)) of ``swept``: the ball around
+    the box of the balls at both ends (the motion is uniform)."""
     lows, highs = [], []
-    for i in bodies:
-        m0, rho = balls[i]
-        body = scene.bodies[i]
-        for t in windows[i]:
+    for body, m0, rho, times in swept:
+        for t in times:
             centre = m0 + body.velocity * (t - body.reference_time)
             lows.append(centre - rho)
             highs.append(centre + rho)
     box_lo, box_hi = np.min(lows, axis=0), np.max(highs, axis=0)
-    return (0.5 * (box_lo + box_hi), 0.5 * float(np.linalg.norm(box_hi - box_lo)),
-            min(windows[i][0] for i in bodies), max(windows[i][1] for i in bodies))
+    return 0.5 * (box_lo + box_hi), 0.5 * float(np.linalg.norm(box_hi - box_lo))
 
 
 def _occluder_windows(scene, body, m0, rho, sources, infinite):

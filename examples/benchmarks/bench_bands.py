@@ -62,26 +62,9 @@ def tracers(scene, width, height):
     dirs64 = bt.pixel_directions(cam, width, height)
     n = len(dirs64)
     dirs = wp.array(dirs64.astype(np.float32), dtype=wp.vec3, device="cpu")
-    o4 = wp.zeros(n, dtype=wp.vec4, device="cpu")
-    prim = wp.zeros(n, dtype=wp.int32, device="cpu")
-    s = wp.zeros(n, dtype=wp.float32, device="cpu")
-    visits = wp.zeros(n, dtype=wp.int32, device="cpu")
+    ours, (prim, _s, visits) = bt.probe_launcher(k, geo, dirs)
     pts, tris = bt.scene_triangles(sscene, windows)
-    wmesh = wp.Mesh(
-        points=wp.array((pts - cam.position).astype(np.float32), dtype=wp.vec3, device="cpu"),
-        indices=wp.array(tris.reshape(-1).astype(np.int32), dtype=wp.int32, device="cpu"),
-    )
-    mk = bt.mesh_kernel()
-    o3 = wp.zeros(n, dtype=wp.vec3, device="cpu")
-    face = wp.zeros(n, dtype=wp.int32, device="cpu")
-    t_hit = wp.zeros(n, dtype=wp.float32, device="cpu")
-
-    def ours(a, b):
-        wp.launch(k.cast_rays, dim=b - a, inputs=[geo, o4[a:b], dirs[a:b], 1, prim[a:b], s[a:b], visits[a:b]], device="cpu")
-
-    def theirs(a, b):
-        wp.launch(mk, dim=b - a, inputs=[wmesh.id, o3[a:b], dirs[a:b], 1.0e30, face[a:b], t_hit[a:b]], device="cpu")
-
+    theirs, (face, _t), _kernel = bt.mesh_launcher(pts - cam.position, tris, dirs)
     return n, ours, theirs, {"prim": prim, "visits": visits, "face": face}
 
 

@@ -161,6 +161,46 @@ def mesh_kernel():
     return _MESH_KERNEL
 
 
+def probe_launcher(k, geo, dirs):
+    """launch(a, b) of our ``cast_rays`` probe (closest hit, finite c, camera event at
+    the render origin) on rays [a, b) of ``dirs``, and its outputs (primitive, lookback,
+    nodes visited)."""
+    import warp as wp
+
+    n = len(dirs)
+    o4 = wp.zeros(n, dtype=wp.vec4, device="cpu")
+    out = (wp.zeros(n, dtype=wp.int32, device="cpu"), wp.zeros(n, dtype=wp.float32, device="cpu"),
+           wp.zeros(n, dtype=wp.int32, device="cpu"))
+
+    def launch(a, b):
+        wp.launch(k.cast_rays, dim=b - a, inputs=[geo, o4[a:b], dirs[a:b], 1, out[0][a:b], out[1][a:b], out[2][a:b]],
+                  device="cpu")
+
+    return launch, out
+
+
+def mesh_launcher(points, tris, dirs):
+    """launch(a, b) of wp.Mesh + mesh_query_ray from the origin on rays [a, b) of
+    ``dirs`` over triangles ``tris`` of ``points`` (camera-relative), its outputs (face
+    or -1, t), and the kernel."""
+    import warp as wp
+
+    n = len(dirs)
+    wmesh = wp.Mesh(
+        points=wp.array(np.asarray(points).astype(np.float32), dtype=wp.vec3, device="cpu"),
+        indices=wp.array(tris.reshape(-1).astype(np.int32), dtype=wp.int32, device="cpu"),
+    )
+    mk = mesh_kernel()
+    o3 = wp.zeros(n, dtype=wp.vec3, device="cpu")
+    face = wp.zeros(n, dtype=wp.int32, device="cpu")
+    t_hit = wp.zeros(n, dtype=wp.float32, device="cpu")
+
+    def launch(a, b, wmesh=wmesh):
+        wp.launch(mk, dim=b - a, inputs=[wmesh.id, o3[a:b], dirs[a:b], 1.0e30, face[a:b], t_hit[a:b]], device="cpu")
+
+    return launch, (face, t_hit), mk
+
+
 def scene_triangles(scene, windows):
     """World-space triangles of a static scene in the extrusion's triangle order
     (bodies, then surfaces, degenerate index triples dropped)."""
@@ -324,14 +364,7 @@ def bench_static(name, scene, cam, args, log):
         t0 = time.perf_counter()
         wp.load_module(k.cast_rays.module, device="cpu")
         res[f"{primitive}_probe_compile_s"] = time.perf_counter() - t0
-        o4 = wp.zeros(n, dtype=wp.vec4, device="cpu")
-        out = (wp.zeros(n, dtype=wp.int32, device="cpu"), wp.zeros(n, dtype=wp.float32, device="cpu"),
-               wp.zeros(n, dtype=wp.int32, device="cpu"))
-
-        def ours(a, b, k=k, geo=geo, o4=o4, out=out):
-            wp.launch(k.cast_rays, dim=b - a, inputs=[geo, o4[a:b], dirs[a:b], 1, out[0][a:b], out[1][a:b], out[2][a:b]],
-                      device="cpu")
-
+        ours, out = probe_launcher(k, geo, dirs)
         prim_tri = mesh.prism_tri if primitive == "prism" else mesh.tet_tri
 
         def result(out=out, prim_tri=prim_tri):
@@ -341,22 +374,11 @@ def bench_static(name, scene, cam, args, log):
         tracers[f"ours_{primitive}"] = (ours, result)
 
     t0 = time.perf_counter()
-    wmesh = wp.Mesh(
-        points=wp.array((pts - cam.position).astype(np.float32), dtype=wp.vec3, device="cpu"),
-        indices=wp.array(tris.reshape(-1).astype(np.int32), dtype=wp.int32, device="cpu"),
-    )
+    theirs, (face, t_hit), mk = mesh_launcher(pts - cam.position, tris, dirs)
     res["mesh_build_s"] = time.perf_counter() - t0
-    mk = mesh_kernel()
     t0 = time.perf_counter()
     wp.load_module(mk.module, device="cpu")
     res["mesh_kernel_compile_s"] = time.perf_counter() - t0
-    o3 = wp.zeros(n, dtype=wp.vec3, device="cpu")
-    face = wp.zeros(n, dtype=wp.int32, device="cpu")
-    t_hit = wp.zeros(n, dtype=wp.float32, device="cpu")
-
-    def theirs(a, b):
-        wp.launch(mk, dim=b - a, inputs=[wmesh.id, o3[a:b], dirs[a:b], 1.0e30, face[a:b], t_hit[a:b]], device="cpu")
-
     tracers["mesh"] = (theirs, lambda: (face.numpy(), t_hit.numpy().astype(np.float64), None))
 
     tri_points = (pts - cam.position)[tris]  # float64 -> float32 in embree_scene
