@@ -95,6 +95,7 @@ def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: Fl
         g.prim_event = wp.array(events.reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
     else:
         g.prim_event = wp.array(vert[mesh.tets.reshape(-1)], dtype=k.vec4, device=_DEVICE)
+    g.prim_f = g.prim_event.view(k.scalar)
     g.prim_vidx = static.prim_vidx
     g.prim_tri = static.prim_tri
     g.tri_body = static.tri_body

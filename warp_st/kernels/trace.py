@@ -73,6 +73,7 @@ def make_trace(scalar, primitive: str = "prism"):
         # events and (t_hi, v) with t_lo in the second event's time slot. Positions are
         # bit-identical copies of the shared vertices.
         prim_event: wp.array(dtype=vec4)
+        prim_f: wp.array2d(dtype=scalar)  # prim_event's memory as rows of 4 scalars
         prim_vidx: wp.array(dtype=wp.vec4i)  # vertex indices for shading (prism: a, b, c, a)
         prim_tri: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
@@ -198,62 +199,74 @@ def make_trace(scalar, primitive: str = "prism"):
 
     @wp.func
     def prism_frame(nd: dvec3, v: dvec3, fin: wp.float64):
-        """Projection of the prism test for ray direction D = n + fin v: (ok, U, W, Z).
+        """Projection of the prism test for ray direction D = n + fin v: (ok, kz, S).
 
-        pbrt's permute-and-shear as three vectors: with k_z the largest component of D,
-        a relative position r projects to (r . U, r . W) on the plane transverse to D
-        and r . Z is its lookback along D. It depends only on the ray and the body's
+        pbrt's permute-and-shear: with k_z the largest component of D and (k_x, k_y)
+        the next two cyclically, a relative position r projects to
+        (r[k_x] + S_x r[k_z], r[k_y] + S_y r[k_z]) on the plane transverse to D, and
+        S_z r[k_z] is its lookback along D. It depends only on the ray and the body's
         velocity: the traversal computes it once per ray for bodies at rest."""
         d = nd + v * fin
         ax = wp.abs(d[0])
         ay = wp.abs(d[1])
         az = wp.abs(d[2])
-        zero = wp.float64(0.0)
         one = wp.float64(1.0)
-        U = dvec3(zero)
-        W = dvec3(zero)
-        Z = dvec3(zero)
+        kz = int(2)
+        S = dvec3(wp.float64(0.0))
         ok = True
         if ax > ay and ax > az:  # kz = 0, kx = 1, ky = 2
+            kz = 0
             inv_z = one / d[0]
-            U = dvec3(-d[1] * inv_z, one, zero)
-            W = dvec3(-d[2] * inv_z, zero, one)
-            Z = dvec3(inv_z, zero, zero)
+            S = dvec3(-d[1] * inv_z, -d[2] * inv_z, inv_z)
         elif ay > az:  # kz = 1, kx = 2, ky = 0
+            kz = 1
             inv_z = one / d[1]
-            U = dvec3(zero, -d[2] * inv_z, one)
-            W = dvec3(one, -d[0] * inv_z, zero)
-            Z = dvec3(zero, inv_z, zero)
-        elif az > zero:  # kz = 2, kx = 0, ky = 1
+            S = dvec3(-d[2] * inv_z, -d[0] * inv_z, inv_z)
+        elif az > wp.float64(0.0):  # kz = 2, kx = 0, ky = 1
             inv_z = one / d[2]
-            U = dvec3(one, zero, -d[0] * inv_z)
-            W = dvec3(zero, one, -d[1] * inv_z)
-            Z = dvec3(zero, zero, inv_z)
+            S = dvec3(-d[0] * inv_z, -d[1] * inv_z, inv_z)
         else:
             ok = False  # D = 0: a decoupled body moving at -n, never met
-        return ok, U, W, Z
+        return ok, kz, S
 
     @wp.func
-    def hit_prism_in(g: Geometry, pi: int, o: vec4, org: dvec3, U: dvec3, W: dvec3, Z: dvec3, finite: int, s_min: scalar, s_max: scalar):
+    def permute(x: dvec3, kz: int) -> dvec3:
+        """(x[k_x], x[k_y], x[k_z]) of ``prism_frame``'s cyclic permutation."""
+        if kz == 0:
+            return dvec3(x[1], x[2], x[0])
+        if kz == 1:
+            return dvec3(x[2], x[0], x[1])
+        return x
+
+    @wp.func
+    def event_p(g: Geometry, row: int, kz: int) -> dvec3:
+        """Row ``row`` of prim_event's spatial part, permuted (``permute``), read in place."""
+        kx = 1 + kz
+        if kx == 3:
+            kx = 0
+        ky = 1 + kx
+        if ky == 3:
+            ky = 0
+        return dvec3(wp.float64(g.prim_f[row, 1 + kx]), wp.float64(g.prim_f[row, 1 + ky]), wp.float64(g.prim_f[row, 1 + kz]))
+
+    @wp.func
+    def hit_prism_in(g: Geometry, pi: int, o: vec4, org: dvec3, kz: int, S: dvec3, finite: int, s_min: scalar, s_max: scalar):
         """(hit, s, barycentrics (b0, b1, b2, 0)) of the ray with prism pi, s in (s_min, s_max),
         with its velocity's projection (``prism_frame``) and the ray origin in the
-        prism's comoving coordinates, ``org`` = o_x - v (o_t - t0) (``comoving_origin``)."""
+        prism's comoving coordinates, permuted, ``org`` = o_x - v (o_t - t0)
+        (``comoving_origin``)."""
         base = 4 * pi
-        e0 = g.prim_event[base]
-        e1 = g.prim_event[base + 1]
-        e2 = g.prim_event[base + 2]
-        top = g.prim_event[base + 3]
-        t_lo = wp.float64(e1[0])  # the segment [t0, t1], widened where it meets the next
-        t_hi = wp.float64(top[0])
+        t_lo = wp.float64(g.prim_f[base + 1, 0])  # the segment [t0, t1], widened where it meets the next
+        t_hi = wp.float64(g.prim_f[base + 3, 0])
         ot = wp.float64(o[0])
         if finite == 0 and (ot < t_lo or ot > t_hi):
             return False, scalar(0.0), vec4(scalar(0.0))
-        r0 = dvec3(wp.float64(e0[1]), wp.float64(e0[2]), wp.float64(e0[3])) - org
-        r1 = dvec3(wp.float64(e1[1]), wp.float64(e1[2]), wp.float64(e1[3])) - org
-        r2 = dvec3(wp.float64(e2[1]), wp.float64(e2[2]), wp.float64(e2[3])) - org
-        p0 = wp.vec2d(wp.dot(r0, U), wp.dot(r0, W))
-        p1 = wp.vec2d(wp.dot(r1, U), wp.dot(r1, W))
-        p2 = wp.vec2d(wp.dot(r2, U), wp.dot(r2, W))
+        r0 = event_p(g, base, kz) - org
+        r1 = event_p(g, base + 1, kz) - org
+        r2 = event_p(g, base + 2, kz) - org
+        p0 = wp.vec2d(r0[0] + S[0] * r0[2], r0[1] + S[1] * r0[2])
+        p1 = wp.vec2d(r1[0] + S[0] * r1[2], r1[1] + S[1] * r1[2])
+        p2 = wp.vec2d(r2[0] + S[0] * r2[2], r2[1] + S[1] * r2[2])
         # Edge functions over ascending vertex indices (a < b): shared edges give
         # bit-identical values in both prisms. b_i is the edge opposite vertex i.
         b0 = cross2(p1, p2)
@@ -272,7 +285,7 @@ def make_trace(scalar, primitive: str = "prism"):
         if det <= f0 + f1 + f2 or b0 < -f0 or b1 < -f1 or b2 < -f2:
             return False, scalar(0.0), vec4(scalar(0.0))
         inv = wp.float64(1.0) / det
-        sd = (b0 * wp.dot(r0, Z) + b1 * wp.dot(r1, Z) + b2 * wp.dot(r2, Z)) * inv
+        sd = (b0 * r0[2] + b1 * r1[2] + b2 * r2[2]) * S[2] * inv
         if finite != 0:
             th = ot - sd
             if th < t_lo or th > t_hi:
@@ -281,14 +294,19 @@ def make_trace(scalar, primitive: str = "prism"):
         return s > s_min and s < s_max, s, vec4(scalar(b0 * inv), scalar(b1 * inv), scalar(b2 * inv), scalar(0.0))
 
     @wp.func
-    def comoving_origin(g: Geometry, pi: int, o: vec4, v: dvec3) -> dvec3:
-        t0 = wp.float64(g.prim_event[4 * pi][0])
-        return dvec3(wp.float64(o[1]), wp.float64(o[2]), wp.float64(o[3])) - v * (wp.float64(o[0]) - t0)
+    def comoving_origin(g: Geometry, pi: int, o: vec4, org: dvec3, kz: int) -> dvec3:
+        """The permuted ray origin ``org`` moved into prism pi's comoving coordinates."""
+        t0 = wp.float64(g.prim_f[4 * pi, 0])
+        return org - event_p(g, 4 * pi + 3, kz) * (wp.float64(o[0]) - t0)
 
     @wp.func
     def prism_v(g: Geometry, pi: int) -> dvec3:
         top = g.prim_event[4 * pi + 3]
         return dvec3(wp.float64(top[1]), wp.float64(top[2]), wp.float64(top[3]))
+
+    @wp.func
+    def origin_x(o: vec4) -> dvec3:
+        return dvec3(wp.float64(o[1]), wp.float64(o[2]), wp.float64(o[3]))
 
     @wp.func
     def hit_prism(g: Geometry, pi: int, o: vec4, nd: dvec3, ud: dvec3, wd: dvec3, finite: int, s_min: scalar, s_max: scalar):
@@ -297,10 +315,11 @@ def make_trace(scalar, primitive: str = "prism"):
         fin = wp.float64(0.0)
         if finite != 0:
             fin = wp.float64(1.0)
-        ok, U, W, Z = prism_frame(nd, v, fin)
+        ok, kz, S = prism_frame(nd, v, fin)
         if not ok:
             return False, scalar(0.0), vec4(scalar(0.0))
-        return hit_prism_in(g, pi, o, comoving_origin(g, pi, o, v), U, W, Z, finite, s_min, s_max)
+        org = comoving_origin(g, pi, o, permute(origin_x(o), kz), kz)
+        return hit_prism_in(g, pi, o, org, kz, S, finite, s_min, s_max)
 
     # min/max as single compare-selects (x86 minss/maxss). wp.min/wp.max guard NaN
     # arguments with a second compare each, which doubled the slab test's cost; the
@@ -410,8 +429,8 @@ def make_trace(scalar, primitive: str = "prism"):
         fin = wp.float64(0.0)
         if finite != 0:
             fin = wp.float64(1.0)
-        _rest_ok, rest_U, rest_W, rest_Z = prism_frame(nd, dvec3(zero), zero)
-        rest_org = dvec3(wp.float64(o[1]), wp.float64(o[2]), wp.float64(o[3]))
+        _rest_ok, rest_kz, rest_S = prism_frame(nd, dvec3(zero), zero)
+        rest_org = permute(origin_x(o), rest_kz)
         best = s_max
         best_tet = int(-1)
         best_lam = vec4(scalar(0.0))
@@ -435,13 +454,14 @@ def make_trace(scalar, primitive: str = "prism"):
                 # but for a few at body boundaries).
                 leaf_v = dvec3(zero)
                 leaf_ok = bool(False)
-                leaf_U = dvec3(zero)
-                leaf_W = dvec3(zero)
-                leaf_Z = dvec3(zero)
+                leaf_kz = int(0)
+                leaf_S = dvec3(zero)
+                leaf_org = dvec3(zero)
                 if wp.static(primitive == "prism"):
                     leaf_v = prism_v(g, first)
                     if finite != 0 and (leaf_v[0] != zero or leaf_v[1] != zero or leaf_v[2] != zero):
-                        leaf_ok, leaf_U, leaf_W, leaf_Z = prism_frame(nd, leaf_v, fin)
+                        leaf_ok, leaf_kz, leaf_S = prism_frame(nd, leaf_v, fin)
+                        leaf_org = permute(origin_x(o), leaf_kz)
                 for k in range(count):
                     ti = first + k
                     tri = int(-2)
@@ -454,12 +474,14 @@ def make_trace(scalar, primitive: str = "prism"):
                         if wp.static(primitive == "prism"):
                             v = prism_v(g, ti)
                             if v[0] == zero and v[1] == zero and v[2] == zero:
-                                h, s, lam = hit_prism_in(g, ti, o, rest_org, rest_U, rest_W, rest_Z, finite, s_min, best)
+                                h, s, lam = hit_prism_in(g, ti, o, rest_org, rest_kz, rest_S, finite, s_min, best)
                             elif finite == 0:
-                                h, s, lam = hit_prism_in(g, ti, o, comoving_origin(g, ti, o, v), rest_U, rest_W, rest_Z, finite, s_min, best)
+                                org = comoving_origin(g, ti, o, rest_org, rest_kz)
+                                h, s, lam = hit_prism_in(g, ti, o, org, rest_kz, rest_S, finite, s_min, best)
                             elif v[0] == leaf_v[0] and v[1] == leaf_v[1] and v[2] == leaf_v[2]:
                                 if leaf_ok:
-                                    h, s, lam = hit_prism_in(g, ti, o, comoving_origin(g, ti, o, v), leaf_U, leaf_W, leaf_Z, finite, s_min, best)
+                                    org = comoving_origin(g, ti, o, leaf_org, leaf_kz)
+                                    h, s, lam = hit_prism_in(g, ti, o, org, leaf_kz, leaf_S, finite, s_min, best)
                             else:
                                 h, s, lam = hit_prism(g, ti, o, nd, ud, wd, finite, s_min, best)
                         else:
