@@ -541,7 +541,7 @@ def build_report(results, machine, args):
         "mirror bounces up to max depth, all AOVs); Mrays/s counts W*H primary rays only; kernel time from `stats.last_kernel_seconds`, full frame from `stats.last_frame_seconds` "
         "(adds recentring upload and film read-back).",
         "- static = same camera and pixel rays, every body at rest (one prism = 3 tets per triangle); closest hit only, "
-        "tiles of min(8192, W*H/16) rays, 2 threads = tiles from a ThreadPoolExecutor (embreex releases the GIL). "
+        "tiles of min(4096, W*H/16) rays, 2 threads = tiles from a ThreadPoolExecutor (embreex releases the GIL). "
         "wp.Mesh uses Warp's default CPU BVH (SAH, leaf size 4); Embree is Intel Embree 4 through `embreex` "
         "(`EmbreeScene.run`, rtcIntersect1 per ray, its default BVH and SIMD kernels, float32); "
         "ours is the 4D binned-SAH BVH (leaf size ≤ 4) collapsed to 4 children per node (a visit = one 16-lane slab test of four 4D boxes) with float64 leaf tests: one comoving triangle per prism "
