@@ -63,6 +63,7 @@ def test_bench_trace_quick_compares_every_tracer(tmp_path, capsys):
     assert module.main(["--quick", "--runs", "1", "--scenes", "parade,flanges", "--out", str(out)]) == 0
     text = out.read_text()
     assert "static ours, prisms Mrays/s 1 thr" in text and "static wp.Mesh Mrays/s 1 thr" in text
+    assert "static ratio ours (prisms) / wp.Mesh run by run, 1 thr" in text
     sanity = [line for line in text.splitlines() if line.startswith("- ") and "hit/miss agree" in line]
     assert len(sanity) >= 4 and all(line.endswith("OK") for line in sanity), sanity
 
