@@ -32,10 +32,11 @@ PRIMITIVES = ("prism", "tet")
 DEFAULT_RESOLUTION = (640, 360)
 #: Mirror reflections followed when nothing asks otherwise (issue: light transport).
 DEFAULT_MAX_DEPTH = 4
-#: Pixels per kernel launch; small enough to balance two cores (the last tiles of a
-#: frame are its costly floor rows), large enough that launch overhead (~9 us) is
-#: negligible. 4,096 against 8,192, five alternations (README, Performance): the
-#: aberration scene's 1 -> 2 core speed-up 1.64-1.86x (median 1.79x) against 1.67-1.74x.
+#: Pixels per kernel launch; small enough to balance two cores (rows differ in cost:
+#: the parade's floor tiles take ten times its sky tiles), large enough that launch
+#: overhead (~9 us) is negligible. 4,096 against 8,192, five alternations (README,
+#: Performance): the aberration scene's 1 -> 2 core speed-up 1.64-1.86x (median
+#: 1.79x) against 1.67-1.74x.
 _TILE_PIXELS = 4096
 
 
