@@ -13,7 +13,7 @@ _register_schemas()  # must run before the first pxr import
 from .conventions import LightSpeed, Precision  # noqa: E402
 from .scene import Scene, SceneError  # noqa: E402
 
-__version__ = "0.3.2"
+__version__ = "0.3.3"
 
 __all__ = [
     "__version__",
