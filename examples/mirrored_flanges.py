@@ -35,7 +35,7 @@ if str(ROOT) not in sys.path:  # run from a checkout without installing
     sys.path.insert(0, str(ROOT))
 
 import warp_st  # noqa: E402
-from warp_st.renderer import Renderer  # noqa: E402
+from warp_st.rendering.renderer import Renderer  # noqa: E402
 
 SCENES = ROOT / "usd_scenes" / "mirrors"
 MODES = (

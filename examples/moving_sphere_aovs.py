@@ -1,7 +1,7 @@
 """Render a sphere passing the camera at 0.9c and measure its AOVs against the closed form.
 
 The renderer traces straight past null rays against the temporally extruded
-(tessellated) sphere; ``warp_st.lorentz.sphere_hit`` solves the same rays against the
+(tessellated) sphere; ``warp_st.core.lorentz.sphere_hit`` solves the same rays against the
 exact Lorentz-contracted sphere (a quadratic in the lookback s). This prints, at a few
 pixels, the rendered depth, event time, proper time and Doppler factor beside the exact
 values, and writes the frame as an EXR.
@@ -15,8 +15,8 @@ import argparse
 import numpy as np
 
 import warp_st
-from warp_st import lorentz, tessellate
-from warp_st.scene import Body, CameraState, Material, RenderSettings, Scene, Surface
+from warp_st.core import lorentz, tessellate
+from warp_st.core.scene import Body, CameraState, Material, RenderSettings, Scene, Surface
 
 WIDTH, HEIGHT, FOCAL, APERTURE = 320, 240, 35.0, 24.0
 

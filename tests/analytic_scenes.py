@@ -2,7 +2,7 @@
 
 A scene here is one tessellated sphere body built directly from the host dataclasses
 (no USD), one pinhole camera, no lights. The float64 oracle is
-:func:`warp_st.lorentz.sphere_hit`; the pinhole model below is SPEC §3's, written out
+:func:`warp_st.core.lorentz.sphere_hit`; the pinhole model below is docs/spec.md §3's, written out
 independently of the renderer's camera code so the two can be compared per pixel.
 """
 from __future__ import annotations
@@ -12,10 +12,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from warp_st import lorentz
-from warp_st import tessellate
-from warp_st.conventions import LightSpeed
-from warp_st.scene import Body, CameraState, RenderSettings, Scene, Surface
+from warp_st.core import lorentz, tessellate
+from warp_st.core.conventions import LightSpeed
+from warp_st.core.scene import Body, CameraState, RenderSettings, Scene, Surface
 
 EPS32 = float(np.finfo(np.float32).eps)
 EPS64 = float(np.finfo(np.float64).eps)
@@ -28,7 +27,7 @@ def look_at(forward, up=(0.0, 1.0, 0.0)) -> np.ndarray:
     """``lab_from_camera`` rotation whose -Z column is ``forward`` (columns: +X, +Y, +Z).
 
     +X = forward × up (right), +Y = right × forward (up), +Z = -forward, so the camera
-    looks down its local -Z with +Y up (SPEC §3, USD camera convention).
+    looks down its local -Z with +Y up (docs/spec.md §3, USD camera convention).
     """
     f = np.asarray(forward, dtype=np.float64)
     f = f / np.linalg.norm(f)
@@ -44,7 +43,7 @@ def look_at(forward, up=(0.0, 1.0, 0.0)) -> np.ndarray:
 def pixel_directions_camera(cam: CameraState, width: int, height: int) -> np.ndarray:
     """Unit pixel-centre directions in camera space, (H, W, 3), row 0 at the top.
 
-    SPEC §3 pinhole: x_ndc = ((i + 0.5)/W) 2 - 1, y_ndc = 1 - ((j + 0.5)/H) 2;
+    docs/spec.md §3 pinhole: x_ndc = ((i + 0.5)/W) 2 - 1, y_ndc = 1 - ((j + 0.5)/H) 2;
     d = (x_ndc hAp/2 + hOff, y_ndc vAp_eff/2 + vOff, -f) with vAp_eff = hAp H / W
     (the aperture conformed to the image aspect by keeping the horizontal aperture).
     """
@@ -75,7 +74,7 @@ def pixel_directions(cam: CameraState, width: int, height: int) -> np.ndarray:
 
 def lab_pixel_directions(cam: CameraState, width: int, height: int) -> np.ndarray:
     """Lab look directions (H, W, 3): the rest-frame pixel directions aberrated by the
-    camera's velocity (relativistic boost, or Galilean for a decoupled camera; SPEC §3)."""
+    camera's velocity (relativistic boost, or Galilean for a decoupled camera; docs/spec.md §3)."""
     n_rest = pixel_directions(cam, width, height)
     v = np.asarray(cam.velocity, dtype=np.float64)
     if not np.any(v):
@@ -234,7 +233,7 @@ def build_scene(case: SphereCase) -> tuple[Scene, CameraState]:
     """The host Scene for ``case`` (one body, '/Sphere'), and its camera at cam_time.
 
     The camera callback returns the same camera for any frame except that its time is
-    the frame (SPEC §3: t_c = the time code when spacetime:time is not authored) and a
+    the frame (docs/spec.md §3: t_c = the time code when spacetime:time is not authored) and a
     moving camera is placed at cam_pos + v (frame - cam_time)."""
     pts, tris, nrm = sphere_mesh(case)
     cam = camera_state_for(case)

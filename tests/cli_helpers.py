@@ -7,7 +7,7 @@ import subprocess
 import time
 from pathlib import Path
 
-from warp_st import exr
+from warp_st.output import exr
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -2,11 +2,11 @@
 import numpy as np
 import warp as wp
 
-from warp_st import tessellate
-from warp_st.device import StaticArrays, make_geometry
+from warp_st.core import tessellate
+from warp_st.core.scene import Body, Material, RenderSettings, Scene, Surface
 from warp_st.kernels import get_kernels
-from warp_st.renderer import _warp, build_database
-from warp_st.scene import Body, Material, RenderSettings, Scene, Surface
+from warp_st.rendering.device import StaticArrays, make_geometry
+from warp_st.rendering.renderer import _warp, build_database
 
 
 def sphere_body(path, centre, radius, velocity=(0, 0, 0), *, segments=24, decoupled=False, lifetime=(-np.inf, np.inf), t_ref=0.0):

@@ -1,4 +1,4 @@
 """``python -m warp_st``: the ``warp-st`` command line."""
-from .cli import main
+from warp_st.commands.cli import main
 
 raise SystemExit(main())

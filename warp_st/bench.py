@@ -7,7 +7,7 @@ Suites (``--suites``, default all), every number measured by this script:
 - ``sequence``: a frame sequence from one database (``Renderer(scene, frames=[...])``
   then ``render(f)``) against rebuilding per frame (``warp_st.render(scene, frame=f)``);
 - ``precision``: float32 against float64 kernels on the analytic moving sphere
-  (``warp_st.lorentz.sphere_hit``), at t = 0 and shifted to t = 10^6: time against the
+  (``warp_st.core.lorentz.sphere_hit``), at t = 0 and shifted to t = 10^6: time against the
   error of Z and eventTime (total, and beyond the tessellation's own bound);
 - ``tessellation``: UV-sphere segments 16...512 against the measured silhouette and
   depth error in pixels and the render time, and the adaptive choice;
@@ -48,8 +48,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .extrude import MIN_SWEEP_FRACTION, SWEEP_FRACTION, TRIANGLE_SWEEP
-from .scene import SceneError  # numpy only: no warp / pxr import until a suite runs
+from warp_st.core.scene import SceneError  # numpy only: no warp / pxr import until a suite runs
+from warp_st.spacetime.extrude import MIN_SWEEP_FRACTION, SWEEP_FRACTION, TRIANGLE_SWEEP
 
 __all__ = [
     "main",
@@ -122,8 +122,8 @@ def _camera_fn(state):
 
 
 def synthetic_scene(name, bodies, lights, cam_state):
-    """A host Scene (no USD) with one camera whose time is the frame (SPEC §3)."""
-    from .scene import RenderSettings, Scene
+    """A host Scene (no USD) with one camera whose time is the frame (docs/spec.md §3)."""
+    from warp_st.core.scene import RenderSettings, Scene
 
     return Scene(
         source=f"<bench:{name}>",
@@ -138,21 +138,21 @@ def synthetic_scene(name, bodies, lights, cam_state):
 
 def bench_camera(focal=27.0):
     """At rest at the origin at t_c = 0, looking down -Z, +Y up; 36 mm aperture."""
-    from .scene import CameraState
+    from warp_st.core.scene import CameraState
 
     return CameraState("/Camera", 0.0, np.zeros(3), np.eye(3), focal_length=focal, horizontal_aperture=36.0,
                        vertical_aperture=20.25)
 
 
 def sun():
-    from .scene import Light
+    from warp_st.core.scene import Light
 
     d = np.array([0.3, 0.8, 0.5])
     return Light("distant", (1.0, 1.0, 1.0), direction=tuple(d / np.linalg.norm(d)), prim_path="/Sun")
 
 
 def lamp():
-    from .scene import Light
+    from warp_st.core.scene import Light
 
     return Light("sphere", (40.0, 40.0, 40.0), position=(0.0, 8.0, -20.0), prim_path="/Lamp")
 
@@ -182,8 +182,8 @@ def sphere_grid_scene(segments: int, n: int = 10, *, scale: float | None = None,
     lightcone) at its grid position: t_ref = t_c - |centre - camera|.
     ``mirror_centre`` makes the sphere nearest the image centre a perfect mirror.
     """
-    from . import tessellate
-    from .scene import Body, Material, Surface
+    from warp_st.core import tessellate
+    from warp_st.core.scene import Body, Material, Surface
 
     cam = bench_camera()
     scale = 10.0 / n if scale is None else float(scale)
@@ -210,8 +210,8 @@ def cube_cloud_scene(count: int, seed: int = 1, *, lights=None):
     """``count`` cubes on a jittered 3D grid in front of the camera, random velocities:
     20% at rest, the rest up to 0.95c in random directions, one third of the moving
     ones Lorentz decoupled; one distant light (``lights`` overrides)."""
-    from . import tessellate
-    from .scene import Body, Material, Surface
+    from warp_st.core import tessellate
+    from warp_st.core.scene import Body, Material, Surface
 
     rng = np.random.default_rng(seed)
     cam = bench_camera()
@@ -252,7 +252,7 @@ def static_version(scene):
 def fixed_tessellation(scene, segments: int | None = None):
     """``scene`` with adaptive sphere tessellation off: every analytic sphere keeps the
     reader's tessellation (``segments`` None) or gets ``segments`` longitudes."""
-    from .extrude import retessellate_sphere
+    from warp_st.spacetime.adaptive import retessellate_sphere
 
     bodies = []
     for b in scene.bodies:
@@ -267,7 +267,7 @@ def fixed_tessellation(scene, segments: int | None = None):
 
 def pixel_directions(cam, width, height, sub: int = 1):
     """Unit pixel directions in the camera's rest frame, lab axes, (H*sub, W*sub, 3), row 0
-    at the top (SPEC §3 pinhole, written out independently of warp_st/camera.py). With
+    at the top (docs/spec.md §3 pinhole, written out independently of warp_st/camera.py). With
     ``sub`` > 1 the directions of a sub x sub grid of sample positions in every pixel."""
     i = (np.arange(width * sub, dtype=np.float64) + 0.5) / sub
     j = (np.arange(height * sub, dtype=np.float64) + 0.5) / sub
@@ -303,7 +303,7 @@ def pixel_pitch(cam, width, height):
 
 
 def _warp():
-    from .renderer import _warp as w
+    from warp_st.rendering.renderer import _warp as w
 
     return w()
 
@@ -323,7 +323,7 @@ def time_render(r, frame, runs: int, threads=None):
 
 def _build(scene, **kw):
     """A Renderer and the seconds its constructor took."""
-    from .renderer import Renderer
+    from warp_st.rendering.renderer import Renderer
 
     t0 = time.perf_counter()
     r = Renderer(scene, **kw)
@@ -335,8 +335,8 @@ def _cut_windows(early: float, late: float):
     """Renderers built inside drop the earliest ``early`` and the latest ``late``
     fraction of the span of every moving body's visibility window (to measure how much
     of the bound an image needs; the renderer never does this)."""
-    from . import renderer
-    from .visibility import intersection, span
+    from warp_st.rendering import renderer
+    from warp_st.spacetime.visibility import intersection, span
 
     real = renderer.visibility_windows
 
@@ -395,7 +395,7 @@ class SphereView:
         return self.t_c - self.distance
 
     def camera(self):
-        from .scene import CameraState
+        from warp_st.core.scene import CameraState
 
         h_ap = 20.955
         focal = 0.5 * h_ap / math.tan(0.5 * math.radians(self.hfov_deg))
@@ -405,8 +405,8 @@ class SphereView:
 
 
 def sphere_view_scene(view: SphereView):
-    from . import tessellate
-    from .scene import Body, Surface
+    from warp_st.core import tessellate
+    from warp_st.core.scene import Body, Surface
 
     centre = view.centre
     pts, tris, nrm = tessellate.sphere(view.radius, view.segments or tessellate.DEFAULT_SPHERE_SEGMENTS)
@@ -423,7 +423,7 @@ def sphere_view_scene(view: SphereView):
 
 def uv_sphere_gap(radius: float, segments: int) -> float:
     """g = R - (smallest distance from the centre to a triangle's plane) of the UV sphere."""
-    from . import tessellate
+    from warp_st.core import tessellate
 
     pts, tris, _ = tessellate.sphere(radius, segments)
     a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
@@ -433,7 +433,7 @@ def uv_sphere_gap(radius: float, segments: int) -> float:
 
 
 def _oracle(view: SphereView, dirs, radius=None):
-    from . import lorentz
+    from warp_st.core import lorentz
 
     return lorentz.sphere_hit(view.t_c, np.asarray(view.shift_x, dtype=np.float64), dirs, view.centre,
                               view.radius if radius is None else radius, np.asarray(view.velocity, dtype=np.float64),
@@ -565,7 +565,7 @@ def sphere_errors(img, view: SphereView, *, segments: int | None = None, sub: in
         out["silhouette_px_mean"] = 0.0
     z = img.depth.astype(np.float64)
     # body-frame position of each rendered hit event relative to the centre: A + Z B
-    from .lorentz import _body_frame_ray
+    from warp_st.core.lorentz import _body_frame_ray
 
     A, B = _body_frame_ray(view.t_c, np.asarray(view.shift_x, dtype=np.float64), dirs, view.centre,
                            np.asarray(view.velocity, dtype=np.float64), view.t_ref, decoupled=view.decoupled,
@@ -601,8 +601,8 @@ def polyhedron_hit(view: SphereView, segments: int, dirs: np.ndarray) -> np.ndar
     (``lorentz._body_frame_ray``); so this is a ray/triangle test (Moller-Trumbore) in
     the body frame against ``tessellate.sphere(R, segments)``.
     """
-    from . import tessellate
-    from .lorentz import _body_frame_ray
+    from warp_st.core import tessellate
+    from warp_st.core.lorentz import _body_frame_ray
 
     pts, tris, _ = tessellate.sphere(view.radius, segments)
     v0, v1, v2 = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
@@ -720,7 +720,7 @@ class Bench:
         # warm: kernels loaded once, so neither side pays the compile
         warp_st.render(scene, frame=frames[0], width=w, height=h)
         t0 = time.perf_counter()
-        from .renderer import Renderer
+        from warp_st.rendering.renderer import Renderer
 
         r = Renderer(scene, frames=frames, width=w, height=h)
         build = time.perf_counter() - t0
@@ -796,7 +796,7 @@ class Bench:
 
     # ------------------------------------------------------------------ slices
     def slices(self):
-        import warp_st.extrude as ex
+        import warp_st.spacetime.extrude as ex
 
         w, h = (96, 54) if self.quick else (320, 180)
         n = 4 if self.quick else 5
@@ -906,9 +906,9 @@ class Bench:
                 row.update(tetrahedra=r.stats.tetrahedra, constructor_s=ctor, per_body=_tets_per_body(r),
                            time_segments="per triangle" if fine else "per body (memory)")
             if len(frames) > 1:  # the same windows filled in between (one interval per body)
-                from .limits import count_database
-                from .renderer import DEFAULT_MAX_DEPTH
-                from .visibility import span, visibility_windows
+                from warp_st.rendering.budget import count_database
+                from warp_st.rendering.renderer import DEFAULT_MAX_DEPTH
+                from warp_st.spacetime.visibility import span, visibility_windows
 
                 cams = [sc.camera_state(sc.default_camera, f) for f in frames]
                 wins = visibility_windows(sc, cams, infinite=False, max_depth=DEFAULT_MAX_DEPTH)
@@ -972,9 +972,9 @@ def _factor(fac) -> str:
 
 @contextlib.contextmanager
 def sweep_factor(factor: float | None):
-    """Temporarily make ``warp_st.extrude.body_slices`` cut segments in which a body sweeps
+    """Temporarily make ``warp_st.spacetime.extrude.body_slices`` cut segments in which a body sweeps
     ``factor`` x its own size (None: the default rule, ``extrude.segment_sweep``)."""
-    import warp_st.extrude as ex
+    import warp_st.spacetime.extrude as ex
 
     if factor is None:
         yield
@@ -1053,7 +1053,7 @@ analytic shape on the surface (`Surface.sphere = (radius, world_from_local)`, ne
 64-segment tessellation); the `Renderer`, which knows the resolution, the lens and the camera
 event of every frame it will render, re-tessellates each sphere before extrusion with the
 fewest longitudes n whose error stays under **half a pixel** in every frame
-(`warp_st.extrude.adapt_sphere_tessellation`; `Renderer.sphere_segments` reports the choice):
+(`warp_st.spacetime.adaptive.adapt_sphere_tessellation`; `Renderer.sphere_segments` reports the choice):
 
     g(n) < 2 r (1 - cos(pi / n))  <=  0.5 px x d_min x alpha_min / m
 
@@ -1084,7 +1084,7 @@ fewest longitudes n whose error stays under **half a pixel** in every frame
   it): rendering a frame alone or within a sequence can differ by up to the half-pixel bound.
   Cubes and meshes are exact and never touched.
 
-The measured errors (tables above, `tests/test_adaptive_tessellation.py`) stay under half a pixel
+The measured errors (tables above, `tests/spacetime/test_adaptive_tessellation.py`) stay under half a pixel
 for spheres at rest and at 0.9c, at several resolutions: silhouette = the largest image-plane
 distance from a pixel whose hit/miss differs from the exact sphere's to the exact outline; depth =
 how far the rendered hit event lies off the exact sphere in the body frame, in pixel footprints.
@@ -1127,10 +1127,10 @@ def report_sections(results, images_rel):
               "Numerical error: the rendered Z and eventTime against the exact float64 first hit of the same "
               "tessellated sphere (`bench.polyhedron_hit`: a ray/triangle test in the body frame, where the extruded "
               "world-tube is exactly the rest mesh), largest over the pixels. Tessellation error: against the "
-              "closed-form sphere (`warp_st.lorentz.sphere_hit`), over pixels where the inner ball R - g is hit too. "
+              "closed-form sphere (`warp_st.core.lorentz.sphere_hit`), over pixels where the inner ball R - g is hit too. "
               f"{s['rows'][0]['segments']} segments. The t = 10^6 case shifts every time by 10^6 and every position "
               "by 10^4 (coordinates are recentred on the camera event in float64 before rounding). Z and eventTime "
-              "are stored as float32 either way (SPEC §4): about 2.4e-7 at Z ~ 5 is the storage floor.", ""]
+              "are stored as float32 either way (docs/spec.md §4): about 2.4e-7 at Z ~ 5 is the storage floor.", ""]
         L += _table(["precision", "case", "tetrahedra", "visits/ray", "render ms", "Z err (numerical)",
                      "eventTime err (numerical)", "Z err vs sphere (tessellation)"],
                     [[r["precision"], r["case"], f"{r['tetrahedra']:,}", f"{r['visits']:.1f}", _ms_range(r["kernel_s"]),

@@ -49,8 +49,8 @@ def tracers(scene, width, height):
     import warp as wp
 
     from warp_st.kernels import get_kernels
-    from warp_st.renderer import Renderer, _warp
-    from warp_st.visibility import visibility_windows
+    from warp_st.rendering.renderer import Renderer, _warp
+    from warp_st.spacetime.visibility import visibility_windows
 
     _warp()
     cam = Renderer(scene, frames=[0], width=16, height=9)._cameras[0]

@@ -49,7 +49,7 @@ def measure(scene: str, frames: list[float], workers: int, width: int, height: i
 
 
 def main(argv=None) -> int:
-    from warp_st.frames import parse_frames
+    from warp_st.core.frames import parse_frames
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default=str(ROOT / "usd_scenes" / "relativistic_parade.usda"))

@@ -75,7 +75,6 @@ def parse_args(argv=None):
 
 
 # Scene builders and machine helpers are shared with `warp-st bench` (warp_st/bench.py).
-from warp_st.extrude import surface_triangles  # noqa: E402
 from warp_st.bench import (  # noqa: E402
     cube_cloud_scene,
     load_parade,
@@ -84,6 +83,7 @@ from warp_st.bench import (  # noqa: E402
     static_version,
     summarize,
 )
+from warp_st.core.scene import surface_triangles  # noqa: E402
 
 
 def cache_entries(wp):
@@ -95,7 +95,7 @@ def cache_entries(wp):
 
 
 def pixel_directions(cam, width, height):
-    """Unit lab pixel-centre directions, (H*W, 3), row-major from the top row (SPEC §3
+    """Unit lab pixel-centre directions, (H*W, 3), row-major from the top row (docs/spec.md §3
     pinhole, the model of warp_st/camera.py; the benchmark cameras are at rest)."""
     i = np.arange(width, dtype=np.float64)
     j = np.arange(height, dtype=np.float64)
@@ -242,8 +242,8 @@ class Launcher:
 def bench_renderer(name, scene, args, log, first):
     import warp as wp
 
-    from warp_st.device import make_geometry
-    from warp_st.renderer import Renderer, _warp
+    from warp_st.rendering.device import make_geometry
+    from warp_st.rendering.renderer import Renderer, _warp
 
     _warp()
     before = cache_entries(wp) if first else None
@@ -320,8 +320,8 @@ def embree_scene(tri_points):
 
 def _our_tracer(k, sscene, windows, primitive, origin):
     """(geometry, mesh, bvh, build seconds) of our 4D database over ``primitive``."""
-    from warp_st.device import StaticArrays, make_geometry
-    from warp_st.renderer import build_database
+    from warp_st.rendering.device import StaticArrays, make_geometry
+    from warp_st.rendering.renderer import build_database
 
     t0 = time.perf_counter()
     mesh, bvh = build_database(sscene, windows, primitive)
@@ -337,8 +337,8 @@ def bench_static(name, scene, cam, args, log):
     import warp as wp
 
     from warp_st.kernels import get_kernels
-    from warp_st.renderer import _TILE_PIXELS, _warp
-    from warp_st.visibility import visibility_windows
+    from warp_st.rendering.renderer import _TILE_PIXELS, _warp
+    from warp_st.spacetime.visibility import visibility_windows
 
     _warp()
     sscene = static_version(scene)
@@ -588,7 +588,7 @@ def main(argv=None):
         cold_dir = tempfile.mkdtemp(prefix="warp_st_bench_cache_")
         os.environ["WARP_CACHE_PATH"] = cold_dir
         atexit.register(shutil.rmtree, cold_dir, ignore_errors=True)
-    from warp_st.renderer import _warp
+    from warp_st.rendering.renderer import _warp
 
     wp = _warp()
 

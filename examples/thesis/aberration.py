@@ -35,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import thesis_common as T  # noqa: E402
 
 import warp_st  # noqa: E402
-from warp_st.renderer import Renderer  # noqa: E402
+from warp_st.rendering.renderer import Renderer  # noqa: E402
 
 SCENE = T.SCENES / "aberration.usda"
 HALF = 0.5e5  # half the star's side

@@ -7,7 +7,7 @@ hit events: in each pixel row the rightmost pixel of the flange's front plane (z
 has its hit at x = c + Z n (Z = the depth AOV, n = the pixel's direction), and the ray
 of the next pixel meets that plane at x'; the edge lies between them (half a pixel,
 0.026 l.units here at 640 x 480). The rows' mean is compared with the closed form: the
-edge point of each row seen at its retarded time (``warp_st.lorentz.retarded_time``).
+edge point of each row seen at its retarded time (``warp_st.core.lorentz.retarded_time``).
 
 Apparent speed = Δx / Δt over the thesis's two frames (Eq. 4.4, ±2.5% in the thesis),
 and the slope of a straight-line fit through all frames (the edge's sub-pixel phase
@@ -27,8 +27,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import thesis_common as T  # noqa: E402
 
 import warp_st  # noqa: E402
-from warp_st import lorentz  # noqa: E402
-from warp_st.renderer import Renderer  # noqa: E402
+from warp_st.core import lorentz  # noqa: E402
+from warp_st.rendering.renderer import Renderer  # noqa: E402
 
 SCENE = T.SCENES / "flange_slow.usda"
 V = np.array([17.32 / 2000.0, 0.0, 0.0])  # the flange's velocity (Eq. 4.3)

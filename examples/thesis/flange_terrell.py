@@ -33,8 +33,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import thesis_common as T  # noqa: E402
 
 import warp_st  # noqa: E402
-from warp_st import lorentz  # noqa: E402
-from warp_st.renderer import Renderer  # noqa: E402
+from warp_st.core import lorentz  # noqa: E402
+from warp_st.rendering.renderer import Renderer  # noqa: E402
 
 V = np.array([T.BETA_FAST, 0.0, 0.0])
 T_REF = 0.0

@@ -36,11 +36,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import thesis_common as T  # noqa: E402
+from pxr import Sdf  # noqa: E402  (after warp_st: it registers the spacetime schemas)
 
 import warp_st  # noqa: E402
-from warp_st import lorentz  # noqa: E402
-from warp_st.renderer import Renderer  # noqa: E402
-from pxr import Sdf  # noqa: E402  (after warp_st: it registers the spacetime schemas)
+from warp_st.core import lorentz  # noqa: E402
+from warp_st.rendering.renderer import Renderer  # noqa: E402
 
 REST = T.SCENES / "sphere_and_cubes.usda"
 MOVING = T.SCENES / "sphere_and_cubes_moving.usda"

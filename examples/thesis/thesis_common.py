@@ -1,7 +1,7 @@
 """Shared helpers for the thesis experiments: pinhole geometry, hit events, fits, tables.
 
 Everything here is plain NumPy in float64 and independent of the renderer's kernels:
-pixel directions follow SPEC §3's pinhole model written out again (as
+pixel directions follow docs/spec.md §3's pinhole model written out again (as
 ``tests/analytic_scenes.py`` does), and hit events are rebuilt from the AOVs alone
 (a camera at rest: event = (t_c - Z, c + Z n) with n the pixel's direction).
 """
@@ -29,7 +29,7 @@ def pixel_dirs(cam, width: int, height: int, px, py) -> np.ndarray:
     """Unit look directions in the camera's REST frame, lab axes, at continuous pixel
     coordinates (px, py): pixel (i, j)'s centre is (i + 0.5, j + 0.5), row 0 at the top.
 
-    SPEC §3: d = (x_ndc hAp/2 + hOff, y_ndc vAp/2 + vOff, -f), x_ndc = 2 px / W - 1,
+    docs/spec.md §3: d = (x_ndc hAp/2 + hOff, y_ndc vAp/2 + vOff, -f), x_ndc = 2 px / W - 1,
     y_ndc = 1 - 2 py / H, the vertical aperture conformed to the image (vAp = hAp H / W).
     """
     px, py = np.broadcast_arrays(np.asarray(px, np.float64), np.asarray(py, np.float64))
@@ -62,7 +62,7 @@ def pixel_centre_dirs(cam, width: int, height: int) -> np.ndarray:
 
 def hit_events(img, cam) -> tuple[np.ndarray, np.ndarray]:
     """(t, x): event time (H, W) and lab position (H, W, 3) of every pixel's first hit,
-    rebuilt from the AOVs for a camera AT REST: x = c + Z n (Z = the lookback s; SPEC §4,
+    rebuilt from the AOVs for a camera AT REST: x = c + Z n (Z = the lookback s; docs/spec.md §4,
     the distance in the camera's rest frame, which is the lab here). NaN on misses."""
     if np.any(np.asarray(cam.velocity)):
         raise ValueError("hit_events needs a camera at rest")
@@ -204,8 +204,9 @@ def angle_deg(a, b) -> float:
 def open_stage(path):
     """A Usd.Stage of ``path`` that the examples may edit in memory before
     ``warp_st.load(stage)`` (e.g. to hide a reticle or widen a lens); the file is not touched."""
-    import warp_st  # noqa: F401  (registers the spacetime schemas before pxr is used)
     from pxr import Usd
+
+    import warp_st  # noqa: F401  (registers the spacetime schemas before pxr is used)
 
     return Usd.Stage.Open(str(path))
 

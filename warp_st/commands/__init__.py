@@ -1,1 +1,1 @@
-"""The ``warp-st`` subcommands, one module each; :mod:`warp_st.cli` parses and dispatches."""
+"""The ``warp-st`` subcommands, one module each; :mod:`warp_st.commands.cli` parses and dispatches."""

@@ -94,7 +94,7 @@ def non_negative_float(text: str) -> float:
 
 
 def size_arg(text: str) -> int:
-    from ..limits import parse_size
+    from warp_st.core.limits import parse_size
 
     try:
         return parse_size(text)

@@ -19,14 +19,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import UsageError, int_arg, non_negative_float, positive_int
-from .inspect_plot import BEAUTY
+from warp_st.commands.common import UsageError, int_arg, non_negative_float, positive_int
+from warp_st.commands.inspect_plot import BEAUTY
 
 
 def add_arguments(parser) -> None:
     """The options of ``warp-st inspect``."""
-    from ..frames import parse_frames
-    from .inspect_diff import METRICS
+    from warp_st.commands.inspect_diff import METRICS
+    from warp_st.core.frames import parse_frames
 
     parser.add_argument("exr", metavar="OUT.exr", nargs="+",
                         help="the EXR; several (or an OUT.####.exr pattern, or a quoted glob) with --contact-sheet")
@@ -87,7 +87,7 @@ def _print_stats(image, names) -> None:
 
 
 def _print_summary(image, path: Path) -> None:
-    from ..exr import read_header
+    from warp_st.output.exr import read_header
 
     print(f"file: {path}")
     print(f"size: {image.width} x {image.height}")
@@ -112,7 +112,7 @@ def _prim_for(image, object_id: int) -> str:
 
 
 def _print_pixel(image, path: Path, x: int, y: int) -> None:
-    from .inspect_plot import spec_of
+    from warp_st.commands.inspect_plot import spec_of
 
     print(f"{path}: pixel x={x} y={y}")
     print(f"  camera time t_c = {image.camera_time!r}, frame {image.frame!r}, "
@@ -134,13 +134,13 @@ def _print_pixel(image, path: Path, x: int, y: int) -> None:
 
 # --- inputs -------------------------------------------------------------------------------
 
-_HASHES = re.compile(r"#+|%0?\d*d")  # as warp_st.frames
+_HASHES = re.compile(r"#+|%0?\d*d")  # as warp_st.core.frames
 
 
 def _sequence(args) -> list[Path]:
     """The EXRs of --contact-sheet: as given, a ``####`` pattern over --frames (or every
     file the pattern matches), or a glob."""
-    from ..frames import expand_output, has_frame_pattern
+    from warp_st.core.frames import expand_output, has_frame_pattern
 
     if len(args.exr) > 1:
         if args.frames is not None:
@@ -175,7 +175,7 @@ def _check_channel(image, path: Path, name: str | None) -> None:
 
 
 def _check_png(path) -> None:
-    from ..exr import check_output_path
+    from warp_st.output.exr import check_output_path
 
     try:
         check_output_path(path)
@@ -206,8 +206,8 @@ def run(args) -> int:
 
 
 def _single(args) -> int:
-    from ..exr import read_exr
-    from .inspect_plot import write_beauty_png, write_channel_png
+    from warp_st.commands.inspect_plot import write_beauty_png, write_channel_png
+    from warp_st.output.film import read_exr
 
     path = Path(args.exr[0])
     if args.png and not args.channel:
@@ -241,8 +241,8 @@ def _single(args) -> int:
 
 
 def _contact_sheet(args) -> int:
-    from ..exr import read_exr
-    from .inspect_plot import write_contact_sheet
+    from warp_st.commands.inspect_plot import write_contact_sheet
+    from warp_st.output.film import read_exr
 
     channel = args.channel or BEAUTY
     paths = _sequence(args)
@@ -258,8 +258,8 @@ def _contact_sheet(args) -> int:
 
 
 def _diff(args) -> int:
-    from ..exr import read_exr
-    from .inspect_diff import compare, report
+    from warp_st.commands.inspect_diff import compare, report
+    from warp_st.output.film import read_exr
 
     path_a, path_b = Path(args.exr[0]), Path(args.diff)
     if args.channel == BEAUTY:

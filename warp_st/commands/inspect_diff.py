@@ -1,6 +1,6 @@
 """``warp-st inspect A.exr --diff B.exr``: per-channel difference metrics against a tolerance.
 
-Values compared: every channel as :meth:`warp_st.film.Image.channel` gives it (event
+Values compared: every channel as :meth:`warp_st.output.film.Image.channel` gives it (event
 and source times absolute, float64), in float64. A pixel where both files hold NaN,
 or both the same infinity, is equal (the background of the AOVs); NaN or inf against
 anything else is a mismatch, which makes max-abs and rms infinite.

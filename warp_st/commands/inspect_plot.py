@@ -1,7 +1,7 @@
 """The PNGs of ``warp-st inspect``: one channel in false colour, the beauty, a contact sheet.
 
 Colour: each AOV in a colour map with a colour bar titled with its units
-(``warp_st.film.channel_spec(name).units``); the Doppler factor on a logarithmic
+(``warp_st.output.film.channel_spec(name).units``); the Doppler factor on a logarithmic
 red-blue scale centred on 1 (red: received redder than emitted); objectId in a
 qualitative map; NaN / inf pixels (the background of most AOVs) in grey. Event and
 source times are drawn relative to the header's ``spacetime:timeOrigin`` (the camera
@@ -36,8 +36,8 @@ def srgb(image) -> np.ndarray:
 
 
 def spec_of(name: str):
-    """The SPEC §4 registry entry of ``name``; None for an extra (renamed RenderVar) channel."""
-    from ..film import channel_spec
+    """The docs/spec.md §4 registry entry of ``name``; None for an extra (renamed RenderVar) channel."""
+    from warp_st.output.film import channel_spec
 
     try:
         return channel_spec(name)
@@ -124,7 +124,7 @@ def _colour_bar(fig, picture, ax, colours: Colouring):
 
 
 def _save(fig, png_path: Path) -> None:
-    from ..exr import atomic_output
+    from warp_st.output.exr import atomic_output
 
     with atomic_output(png_path) as fh:
         fig.savefig(fh, format="png")
@@ -139,7 +139,7 @@ def _frame_text(image) -> str:
 def write_beauty_png(image, png_path: Path) -> None:
     """The beauty as an 8-bit sRGB PNG, one pixel per pixel (no axes, no colour bar)."""
     plt = _pyplot()
-    from ..exr import atomic_output
+    from warp_st.output.exr import atomic_output
 
     with atomic_output(png_path) as fh:
         plt.imsave(fh, srgb(image), format="png")

@@ -8,41 +8,8 @@ import re
 import sys
 from pathlib import Path
 
-from ..scene import SceneError
-from .common import PROG
-
-@contextlib.contextmanager
-def held_diagnostics():
-    """Hold back the reader's Python warnings and what USD prints on fd 2 during the block.
-
-    On bad input only the one error line is printed (SPEC §6), so what was held is
-    dropped when the block raises; on success it is printed (each warning as one line).
-    """
-    import tempfile
-    import warnings
-
-    sys.stderr.flush()
-    try:
-        saved = os.dup(2)
-    except OSError:  # pragma: no cover - no fd 2
-        saved = None
-    with tempfile.TemporaryFile() as sink, warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        if saved is not None:
-            os.dup2(sink.fileno(), 2)
-        try:
-            yield
-        finally:
-            if saved is not None:
-                sys.stderr.flush()
-                os.dup2(saved, 2)
-                os.close(saved)
-        sink.seek(0)
-        native = sink.read().decode("utf-8", "replace").rstrip()
-    if native:
-        print(native, file=sys.stderr)
-    for w in caught:
-        print(f"{PROG}: warning: {' '.join(str(w.message).split())}", file=sys.stderr)
+from warp_st.core.native_output import held_diagnostics
+from warp_st.core.scene import SceneError
 
 
 @contextlib.contextmanager
@@ -152,7 +119,7 @@ def load(scene_path: Path, no_references: bool, max_memory: int | None = None):
     memory capped (see _address_space_cap); stages with binary layers are first read
     in a child process (see _probe_in_child)."""
     import warp_st
-    from ..limits import default_max_memory
+    from warp_st.core.limits import default_max_memory
 
     if _uses_crate_layers(scene_path):
         _probe_in_child(scene_path, no_references, default_max_memory())
@@ -166,15 +133,3 @@ def load(scene_path: Path, no_references: bool, max_memory: int | None = None):
         except MemoryError:
             raise SceneError(f"{scene_path}: reading it needs more memory than the limit "
                              "(--max-memory); the file may be corrupt") from None
-
-
-def file_hash(path: Path) -> str:
-    """sha256 of the file's bytes (the stage's root layer), as ``sha256:HEX``."""
-    import hashlib
-
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(chunk)
-    return f"sha256:{digest.hexdigest()}"
-

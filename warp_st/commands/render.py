@@ -9,12 +9,22 @@ import time
 import traceback
 from pathlib import Path
 
-from ..frames import finite_frame, frame_label, frames_label, parse_frames
-from ..farm import LOCAL_FRAMES, MIN_CORES
-from .common import (PROG, UsageError, error, interrupted_status, interruption, non_negative_float,
-                     non_negative_int, positive_int, size_arg)
-from ..outputs import FrameJob, OutputPlanError, job_complete, plan_pattern, plan_products, single_view
-from .load import file_hash, load
+from warp_st.commands.common import (
+    PROG,
+    UsageError,
+    error,
+    interrupted_status,
+    interruption,
+    non_negative_float,
+    non_negative_int,
+    positive_int,
+    size_arg,
+)
+from warp_st.commands.load import load
+from warp_st.core.frames import finite_frame, frame_label, frames_label, parse_frames
+from warp_st.core.hashing import file_hash
+from warp_st.jobs.farm import LOCAL_FRAMES, MIN_CORES
+from warp_st.output.plan import FrameJob, OutputPlanError, job_complete, plan_pattern, plan_products, single_view
 
 
 def add_arguments(parser) -> None:
@@ -90,8 +100,8 @@ def _options_text(args) -> str:
 
 
 def run(args, argv: list[str]) -> int:
-    from ..conventions import LightSpeed, Precision
-    from ..sequence import StageFile, render_sequence
+    from warp_st.core.conventions import LightSpeed, Precision
+    from warp_st.jobs.sequence import StageFile, render_sequence
 
     scene_path = Path(args.scene)
     if not scene_path.is_file():
@@ -106,7 +116,7 @@ def run(args, argv: list[str]) -> int:
     if frames is not None and args.output is not None:  # check -o names before the (slower) load
         plan_outputs(args, scene_path, frames, frames_given)
     if args.log not in (None, "-"):
-        from ..exr import check_output_path
+        from warp_st.output.exr import check_output_path
 
         try:
             check_output_path(args.log)
@@ -182,7 +192,7 @@ def _complete(console, jobs, since: float) -> list[float]:
 
 
 class _Console:
-    """The records of a run (``warp_st.sequence``) as lines: human ones on stdout, JSON lines
+    """The records of a run (``warp_st.jobs.sequence``) as lines: human ones on stdout, JSON lines
     appended to ``--log FILE`` or, with ``--log -``, on stdout instead of the human ones."""
 
     def __init__(self, args):

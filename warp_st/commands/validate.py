@@ -11,8 +11,8 @@ import json
 import sys
 from pathlib import Path
 
-from .common import PROG, UsageError
-from .load import _address_space_cap, _probe_in_child, _uses_crate_layers
+from warp_st.commands.common import PROG, UsageError
+from warp_st.commands.load import _address_space_cap, _probe_in_child, _uses_crate_layers
 
 
 def add_arguments(parser) -> None:
@@ -28,9 +28,10 @@ def _plural(n: int, word: str) -> str:
 
 
 def run(args) -> int:
-    from ..limits import default_max_memory
-    from ..usd.stage import _open_file, _usd_diagnostics
-    from ..usd.validators import counts, validate_stage
+    from warp_st.core.limits import default_max_memory
+    from warp_st.core.native_output import captured_output
+    from warp_st.usd.stage import _open_file
+    from warp_st.usd.validators import counts, validate_stage
 
     scene_path = Path(args.scene)
     if not scene_path.is_file():
@@ -40,7 +41,7 @@ def run(args) -> int:
     label = str(scene_path)
     # USD's own printout is dropped: what it reports (composition errors, material
     # bindings) is listed by the built-in validators.
-    with _usd_diagnostics(), _address_space_cap(default_max_memory()):
+    with captured_output(), _address_space_cap(default_max_memory()):
         stage, _ = _open_file(label, args.no_references)
         problems, scene = validate_stage(stage, label, no_references=args.no_references)
     n = counts(problems)

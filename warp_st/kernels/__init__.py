@@ -1,4 +1,4 @@
 """Pure Warp device code: intersection, traversal, shading and the render kernel."""
-from .render_kernel import Kernels, get_kernels
+from warp_st.kernels.render_kernel import Kernels, get_kernels
 
 __all__ = ["Kernels", "get_kernels"]

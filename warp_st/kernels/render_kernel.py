@@ -1,6 +1,6 @@
 """The per-pixel megakernel: camera ray on the past lightcone, closest hit, shading, AOVs.
 
-Pure Warp device code; the host (``warp_st.renderer``) fills the structs. All events are
+Pure Warp device code; the host (``warp_st.rendering.renderer``) fills the structs. All events are
 relative to the render origin (the camera event), so large absolute times cost nothing.
 """
 
@@ -8,10 +8,10 @@ import functools
 
 import warp as wp
 
-from .probe import make_probe
-from .shade import make_shade
-from .spectrum import make_spectrum
-from .trace import make_trace
+from warp_st.kernels.probe import make_probe
+from warp_st.kernels.shade import make_shade
+from warp_st.kernels.spectrum import make_spectrum
+from warp_st.kernels.trace import make_trace
 
 __all__ = ["get_kernels", "Kernels"]
 
@@ -89,7 +89,7 @@ def _make_render(scalar, k, trace, Geometry):
 
     @wp.func
     def aberrate(n_rest: vec3, v: vec3, gamma: scalar, decoupled: int) -> vec3:
-        """Camera rest-frame look direction -> lab look direction (SPEC §3).
+        """Camera rest-frame look direction -> lab look direction (docs/spec.md §3).
 
         Relativistic: boost the arriving photon k' = (1, -n') to the lab, n = -k_x/k_t.
         Classical (Galilean): n + v is parallel to n' with |n| = 1.
@@ -148,7 +148,7 @@ def _make_render(scalar, k, trace, Geometry):
         """Radiance along one camera ray with mirror bounces (a loop: kernels cannot recurse).
 
         A surface shows (1 - metallic) x its own shading + metallic x diffuseColor x the
-        radiance arriving along the reflected null ray (SPEC §2; issue: light transport),
+        radiance arriving along the reflected null ray (docs/spec.md §2; issue: light transport),
         for at most ``max_depth`` reflections. Returns (colour, alpha, first prim, its
         lookback s, barycentrics, source event time, bounces before it, visits,
         overflow). The source is the last hit that is not a perfect mirror, or the

@@ -1,6 +1,6 @@
 """Surface response at a hit event: normals, Lambert with null-ray shadows, 4D mirror reflection.
 
-Pure Warp device code. Lights are at rest in the lab (SPEC §3).
+Pure Warp device code. Lights are at rest in the lab (docs/spec.md §3).
 """
 import warp as wp
 
@@ -74,7 +74,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
     def shade(geo: Geometry, shd: Shading, finite: int, prim: int, path: scalar, event: vec4, normal: vec3):
         """Emission plus Lambert from lights at rest, each behind a null-ray shadow test.
 
-        Without lights the surface shows its unlit albedo (SPEC §3).
+        Without lights the surface shows its unlit albedo (docs/spec.md §3).
         """
         tri = geo.prim_tri[prim]
         mat = shd.tri_material[tri]

@@ -1,7 +1,7 @@
 """Ray casting against the 4D database of prisms or tetrahedra (pure Warp device code).
 
 A ray is the null line E(s) = O + s d with d = (-1, n) for finite light speed or
-(0, n) for infinite light speed (SPEC §1), s >= 0 the lookback. Everything is in
+(0, n) for infinite light speed (docs/spec.md §1), s >= 0 the lookback. Everything is in
 render-origin coordinates (the camera event is the origin).
 
 Ray/tetrahedron intersection (thesis §4.3.2, barycentric): the 4D line meets the
@@ -24,7 +24,7 @@ o_x + s n = sum b_i x_i + v (o_t - s - t0), i.e. the static triangle x_i is met 
 3D ray O' + s D with O' = o_x - v (o_t - t0) and D = n + v (D = n with infinite light
 speed, where t = o_t), subject to t_lo <= o_t - s <= t_hi: one 3D triangle test instead
 of three 4D ones. A prism is exactly the union of its three tetrahedra (the side quads
-are parallelograms), so both paths give the same hits (tests/test_prisms.py); [t_lo,
+are parallelograms), so both paths give the same hits (tests/spacetime/test_prisms.py); [t_lo,
 t_hi] is the segment [t0, t1] overlapping its neighbours slightly (extrude.PRISM_OVERLAP:
 the same moving triangle, continued), which keeps slice times watertight.
 The test projects along D (pbrt's permute-and-shear) and evaluates each edge function
@@ -39,7 +39,7 @@ database's box return before any other set-up.
 
 import warp as wp
 
-from ..bvh_wide import LINK_MASK, LINK_SHIFT, MAX_WIDE_DEPTH
+from warp_st.kernels.layout import LINK_MASK, LINK_SHIFT, MAX_WIDE_DEPTH
 
 __all__ = ["make_trace", "STACK_SIZE"]
 

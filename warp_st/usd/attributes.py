@@ -1,12 +1,12 @@
 """Typed, validated attribute reads for the USD reader.
 
 Every getter either returns a plain Python / NumPy value or raises
-:class:`warp_st.scene.SceneError` naming the file, the prim and the attribute, so
+:class:`warp_st.core.scene.SceneError` naming the file, the prim and the attribute, so
 the reader never hands a NaN or a wrong-shaped value to later steps.
 
 Types are checked by the value's C++ type, not its role: ``float3``, ``color3f``,
 ``point3f`` and ``vector3f`` are all "a 3-vector of floats"; half, float and
-double precision are all accepted where a real number is asked for (SPEC §2:
+double precision are all accepted where a real number is asked for (docs/spec.md §2:
 "float or double variants").
 """
 from __future__ import annotations
@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 from pxr import Sdf, Usd
 
-from ..limits import MAX_MAGNITUDE
-from ..scene import SceneError
+from warp_st.core.limits import MAX_MAGNITUDE
+from warp_st.core.scene import SceneError
 
 __all__ = [
     "SPACETIME_BODY_API",
@@ -111,7 +111,7 @@ def has_api(prim, name: str) -> bool:
     """True when ``name`` is applied to ``prim``, with or without the plugin loaded.
 
     ``HasAPI`` / ``GetAppliedSchemas`` only know registered schemas, so the
-    composed ``apiSchemas`` list op is read directly as well (SPEC §2: a stage
+    composed ``apiSchemas`` list op is read directly as well (docs/spec.md §2: a stage
     authored without the schemas loaded must read the same).
     """
     if name in prim.GetAppliedSchemas():
@@ -275,7 +275,7 @@ def body_kinematics(where: Where, prim) -> tuple[np.ndarray, float, tuple[float,
     """Validated ``SpacetimeBodyAPI`` values: (velocity v, t_ref, lifetime, decoupled).
 
     v = (x, y, z) / t of ``spacetime:fourVelocity`` (t > 0); a Lorentz-coupled body
-    needs |v| < 1, a decoupled one any finite v (SPEC §2).
+    needs |v| < 1, a decoupled one any finite v (docs/spec.md §2).
     """
     u = vector(where, prim, "spacetime:fourVelocity", 4, (1.0, 0.0, 0.0, 0.0))
     if not u[0] > 0.0:

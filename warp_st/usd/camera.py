@@ -1,4 +1,4 @@
-"""The camera at a USD time code (SPEC §3): ``Scene.camera_state``."""
+"""The camera at a USD time code (docs/spec.md §3): ``Scene.camera_state``."""
 from __future__ import annotations
 
 import math
@@ -6,19 +6,19 @@ import math
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
-from ..conventions import LightSpeed
-from ..limits import MAX_MAGNITUDE
-from ..scene import CameraState, SceneError
-from . import attributes as A
-from .attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api
-from .geometry import world_transform
-from .stage import open_stage, tf_message
+from warp_st.core.conventions import LightSpeed
+from warp_st.core.limits import MAX_MAGNITUDE
+from warp_st.core.scene import CameraState, SceneError
+from warp_st.usd import attributes as A
+from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api
+from warp_st.usd.geometry import world_transform
+from warp_st.usd.stage import open_stage, tf_message
 
 __all__ = ["CameraEvaluator", "lab_from_camera"]
 
 
 class CameraEvaluator:
-    """``camera_state(path, frame) -> CameraState``: a camera at a USD time code (SPEC §3).
+    """``camera_state(path, frame) -> CameraState``: a camera at a USD time code (docs/spec.md §3).
 
     path None selects the scene's default camera. Holds the open stage; pickling
     keeps only how to reopen it: the file path when the scene was loaded from a
@@ -85,7 +85,7 @@ class CameraEvaluator:
         if rotation is None:
             raise w.error(prim, "xformOpOrder", "the world transform is singular")
 
-        # t_c: spacetime:time at this time code, else the time code itself (SPEC §3).
+        # t_c: spacetime:time at this time code, else the time code itself (docs/spec.md §3).
         time = A.real(w, prim, "spacetime:time", None, time=tc)
         time = frame if time is None else time
         light_speed = A.token(w, prim, "spacetime:lightSpeed", tuple(s.value for s in LightSpeed),

@@ -2,7 +2,7 @@
 
 Everything is read at the default time code (the 4D database never changes
 between frames) and returned in float64 world space at the body's reference time
-(SPEC §2). USD matrices act on row vectors: ``p_world = p_local @ M[:3, :3] + M[3, :3]``.
+(docs/spec.md §2). USD matrices act on row vectors: ``p_world = p_local @ M[:3, :3] + M[3, :3]``.
 """
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ import warnings
 import numpy as np
 from pxr import Gf, Tf, Usd, UsdGeom, UsdShade
 
-from .. import tessellate
-from ..limits import MAX_MAGNITUDE
-from ..scene import Material, Surface
-from . import attributes as A
-from .attributes import DEFAULT_TIME, Where
+from warp_st.core import tessellate
+from warp_st.core.limits import MAX_MAGNITUDE
+from warp_st.core.scene import Material, Surface
+from warp_st.usd import attributes as A
+from warp_st.usd.attributes import DEFAULT_TIME, Where
 
 __all__ = [
     "SUPPORTED_GPRIMS",
@@ -27,7 +27,7 @@ __all__ = [
     "world_transform",
 ]
 
-#: The gprim types turned into surfaces (SPEC §2). Other gprims are skipped with a warning.
+#: The gprim types turned into surfaces (docs/spec.md §2). Other gprims are skipped with a warning.
 SUPPORTED_GPRIMS = (UsdGeom.Mesh, UsdGeom.Sphere, UsdGeom.Cube)
 
 #: Prims visited below a prototype root: "over" prototypes are allowed, classes are not.

@@ -1,8 +1,8 @@
-"""UsdRender products and vars → :class:`warp_st.scene.RenderProduct` (docs/usd_render_products.md).
+"""UsdRender products and vars → :class:`warp_st.core.scene.RenderProduct` (docs/usd_render_products.md).
 
 The chosen RenderSettings prim's ``products`` name UsdRender.Product prims (productName,
 possibly time-sampled; camera and resolution overriding the settings'); each product's
-``orderedVars`` name UsdRender.Var prims, resolved here to SPEC §4 channels:
+``orderedVars`` name UsdRender.Var prims, resolved here to docs/spec.md §4 channels:
 
 - the source: ``sourceName`` (default: the var's prim name) through :data:`SOURCES`;
   ``sourceType`` raw or intrinsic, or lpe for the beauty (``C.*``); primvar has no source;
@@ -19,15 +19,15 @@ from __future__ import annotations
 
 from pxr import UsdGeom, UsdRender
 
-from ..film import CHANNEL_NAMES, channel_spec
-from ..scene import RenderProduct, RenderVar
-from .attributes import DEFAULT_TIME, Where
+from warp_st.core.scene import RenderProduct, RenderVar
+from warp_st.output.film import CHANNEL_NAMES, channel_spec
+from warp_st.usd.attributes import DEFAULT_TIME, Where
 
 __all__ = ["SOURCES", "DATA_TYPES", "read_products"]
 
 _BEAUTY = ("R", "G", "B", "A")
 
-#: sourceName -> the SPEC §4 channels it holds: pipeline names, then every SPEC name.
+#: sourceName -> the docs/spec.md §4 channels it holds: pipeline names, then every SPEC name.
 SOURCES: dict[str, tuple[str, ...]] = {
     **dict.fromkeys(("color", "rgba", "Ci", "C", "LdrColor", "HdrColor"), _BEAUTY),
     **dict.fromkeys(("a", "alpha"), ("A",)),

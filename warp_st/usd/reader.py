@@ -1,4 +1,4 @@
-"""USD stage → :class:`warp_st.scene.Scene` (SPEC §2 and §3).
+"""USD stage → :class:`warp_st.core.scene.Scene` (docs/spec.md §2 and §3).
 
 One traversal in stage order (instance proxies included) collects:
 
@@ -29,15 +29,15 @@ from dataclasses import dataclass, field
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender
 
-from ..conventions import Precision
-from ..limits import MAX_BOUNCES, MAX_MAGNITUDE, MAX_PIXELS, MAX_SAMPLES
-from ..scene import Body, Light, RenderSettings, Scene, SceneError, Surface
-from . import attributes as A
-from .attributes import DEFAULT_TIME, SPACETIME_BODY_API, Where, body_kinematics, has_api
-from .camera import CameraEvaluator
-from .geometry import GprimReader, is_hidden, world_transform
-from .products import read_products
-from .stage import open_stage, tf_message
+from warp_st.core.conventions import Precision
+from warp_st.core.limits import MAX_BOUNCES, MAX_MAGNITUDE, MAX_PIXELS, MAX_SAMPLES
+from warp_st.core.scene import Body, Light, RenderSettings, Scene, SceneError, Surface
+from warp_st.usd import attributes as A
+from warp_st.usd.attributes import DEFAULT_TIME, SPACETIME_BODY_API, Where, body_kinematics, has_api
+from warp_st.usd.camera import CameraEvaluator
+from warp_st.usd.geometry import GprimReader, is_hidden, world_transform
+from warp_st.usd.products import read_products
+from warp_st.usd.stage import open_stage, tf_message
 
 __all__ = ["load_scene", "open_stage", "CameraEvaluator", "body_kinematics"]
 
@@ -167,7 +167,7 @@ class _StageReader:
 
     # -- lights ---------------------------------------------------------------------
     def _light(self, prim) -> None:
-        """SphereLight: a point at its world position; DistantLight: from its local +Z (SPEC §3)."""
+        """SphereLight: a point at its world position; DistantLight: from its local +Z (docs/spec.md §3)."""
         w = self.where
         if not (prim.IsA(UsdLux.SphereLight) or prim.IsA(UsdLux.DistantLight)):
             kind = prim.GetTypeName()

@@ -1,17 +1,16 @@
 """Opening a USD stage: any failure becomes one SceneError line naming the file."""
 from __future__ import annotations
 
-import contextlib
 import os
 import re
 import sys
-import tempfile
 from pathlib import Path
 
 from pxr import Sdf, Tf, Usd
 
-from ..scene import SceneError
-from .attributes import Where
+from warp_st.core.native_output import captured_output
+from warp_st.core.scene import SceneError
+from warp_st.usd.attributes import Where
 
 __all__ = ["open_stage", "tf_message"]
 
@@ -26,7 +25,7 @@ def open_stage(source, *, no_references: bool = False) -> tuple[Usd.Stage, Where
     composed, and a ``Usd.Stage`` passed in is used as already composed. Without it, an arc that cannot be resolved (a missing referenced
     file) is an error rather than silently missing geometry.
     """
-    with _usd_diagnostics() as printed:
+    with captured_output() as printed:
         if isinstance(source, Usd.Stage):
             root = source.GetRootLayer()
             stage, label = source, root.realPath or root.identifier
@@ -42,31 +41,6 @@ def open_stage(source, *, no_references: bool = False) -> tuple[Usd.Stage, Where
     if printed and printed[0].strip():
         print(printed[0].rstrip(), file=sys.stderr)
     return stage, Where(label)
-
-
-@contextlib.contextmanager
-def _usd_diagnostics():
-    """Capture what USD prints on file descriptor 2 while a stage is composed.
-
-    Yields a list that receives the text once the block ends. A SceneError raised
-    in the block propagates and the text is dropped (SPEC §6: one line on bad input).
-    """
-    printed: list[str] = []
-    try:
-        sys.stderr.flush()
-        saved = os.dup(2)
-    except (OSError, ValueError, AttributeError):  # no real fd 2 (embedded interpreter)
-        yield printed
-        return
-    with tempfile.TemporaryFile() as sink:
-        os.dup2(sink.fileno(), 2)
-        try:
-            yield printed
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            sink.seek(0)
-            printed.append(sink.read().decode("utf-8", "replace"))
 
 
 def _open_file(label: str, no_references: bool) -> tuple[Usd.Stage, str]:

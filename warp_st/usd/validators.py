@@ -10,7 +10,7 @@ problem the function runs again with the attribute it named read as unauthored
 
 Registered with ``UsdValidation.ValidationRegistry`` (Python registration, keyword
 ``warpSt``; no ``schemaTypes``, because a stage authored without the schemas
-loaded must validate the same, SPEC §2):
+loaded must validate the same, docs/spec.md §2):
 
 - ``warpSt:SpacetimeBody``: SpacetimeBodyAPI values (types, |v| >= 1 on a coupled
   body, t <= 0, lifetime order, NaN / inf); a warning when the body has no visible
@@ -25,7 +25,7 @@ loaded must validate the same, SPEC §2):
 
 Built-in validators run beside them (:data:`BUILTIN`): composition errors, material
 bindings without MaterialBindingAPI, a missing upAxis. ``AttributeTypeMismatch`` is
-not used: it requires the schema's exact type (double4) where SPEC §2 accepts float
+not used: it requires the schema's exact type (double4) where docs/spec.md §2 accepts float
 variants, and it knows nothing of a stage read without the schemas.
 """
 from __future__ import annotations
@@ -36,11 +36,11 @@ from dataclasses import asdict, dataclass
 
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdValidation
 
-from ..scene import SceneError
-from .attributes import MASKED, SPACETIME_BODY_API, Where, body_kinematics, has_api
-from .camera import CameraEvaluator
-from .geometry import SUPPORTED_GPRIMS, GprimReader, is_hidden, world_transform
-from .stage import tf_message
+from warp_st.core.scene import SceneError
+from warp_st.usd.attributes import MASKED, SPACETIME_BODY_API, Where, body_kinematics, has_api
+from warp_st.usd.camera import CameraEvaluator
+from warp_st.usd.geometry import SUPPORTED_GPRIMS, GprimReader, is_hidden, world_transform
+from warp_st.usd.stage import tf_message
 
 __all__ = ["Problem", "KEYWORD", "BUILTIN", "register", "validate_stage", "counts"]
 
@@ -54,7 +54,7 @@ BUILTIN = {
     "usdGeomValidators:StageMetadataChecker": ("warning", {"MissingUpAxisMetadata"}),
 }
 
-#: What the reader traverses (SPEC §2: instancing included).
+#: What the reader traverses (docs/spec.md §2: instancing included).
 PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
 
 _SEVERITY = {
@@ -249,7 +249,7 @@ def _spacetime_body(prim) -> list:
     errors = _errors(stage, lambda: body_kinematics(where, prim))
     if prim.IsA(UsdGeom.Camera):
         return errors
-    xf = UsdGeom.XformCache(Usd.TimeCode.Default())  # its pivot o (SPEC §2), as the reader reads it
+    xf = UsdGeom.XformCache(Usd.TimeCode.Default())  # its pivot o (docs/spec.md §2), as the reader reads it
     errors += _errors(stage, lambda: world_transform(where, prim, lambda: xf.GetLocalToWorldTransform(prim)),
                       every=False)
     if not _owns_geometry(prim):
@@ -283,7 +283,7 @@ def _light(prim) -> list:
         return [_error(stage, "warning", str(prim.GetPath()), None,
                        f"{prim.GetTypeName()} is not supported (SphereLight, DistantLight); ignored",
                        "UnsupportedPrim")]
-    from .reader import _StageReader
+    from warp_st.usd.reader import _StageReader
 
     return _errors(stage, lambda: _StageReader(stage, Where(_file_of(stage)))._light(prim))
 
@@ -306,9 +306,9 @@ def _camera_frames(stage, prim, limit: int = 64) -> list[float]:
 
 
 def _stage(stage) -> list:
-    from ..outputs import OutputPlanError, check_product_clashes, product_paths
-    from .products import read_products
-    from .reader import _StageReader
+    from warp_st.output.plan import OutputPlanError, check_product_clashes, product_paths
+    from warp_st.usd.products import read_products
+    from warp_st.usd.reader import _StageReader
 
     file = _file_of(stage)
     where = Where(file)
@@ -358,7 +358,7 @@ def _stage(stage) -> list:
 
 _VALIDATORS = {
     "warpSt:SpacetimeBody": ("prim", _spacetime_body,
-                             "SpacetimeBodyAPI values are valid (SPEC §2) and the body has geometry."),
+                             "SpacetimeBodyAPI values are valid (docs/spec.md §2) and the body has geometry."),
     "warpSt:Geometry": ("prim", _geometry, "Mesh, Sphere, Cube and PointInstancer data can be rendered; "
                                            "other gprims are reported as ignored."),
     "warpSt:Light": ("prim", _light, "SphereLight and DistantLight values are valid; other lights are ignored."),
@@ -423,13 +423,13 @@ def _order(stage) -> dict[str, int]:
 
 def validate_stage(stage: Usd.Stage, file: str, *, no_references: bool = False):
     """(problems, scene): every problem of ``stage`` in stage order (duplicates dropped),
-    and the :class:`~warp_st.scene.Scene` the reader makes of it (None when it cannot).
+    and the :class:`~warp_st.core.scene.Scene` the reader makes of it (None when it cannot).
 
     ``file`` names the stage in the problems. When the validators find no error the
     reader itself reads the stage too, and a SceneError it raises is a problem, so a
     stage without errors always loads.
     """
-    from .reader import load_scene
+    from warp_st.usd.reader import load_scene
 
     register()
     registry = UsdValidation.ValidationRegistry()

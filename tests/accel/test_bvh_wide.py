@@ -1,0 +1,72 @@
+"""The 4-wide BVH the kernel traces (warp_st/bvh_wide.py) against the binary tree it
+collapses: the same leaves, each reachable exactly once, with the binary boxes."""
+import numpy as np
+import pytest
+
+from warp_st.accel.bvh import build_bvh
+from warp_st.accel.bvh_wide import LINK_MASK, LINK_SHIFT, WIDTH, collapse, wide_boxes
+
+
+def _boxes(n, seed):
+    rng = np.random.default_rng(seed)
+    c = rng.random((n, 4)) * [10.0, 5.0, 5.0, 5.0]
+    half = rng.random((n, 4)) * 0.2
+    return c - half, c + half
+
+
+def _walk(wide):
+    """Every leaf (first, count) reachable from the root, and the wide nodes visited."""
+    leaves, seen, todo = [], [], [0]
+    while todo:
+        j = todo.pop()
+        seen.append(j)
+        for link in wide.link[j]:
+            if link < 0:
+                continue
+            first, count = int(link) >> LINK_SHIFT, int(link) & LINK_MASK
+            if count:
+                leaves.append((first, count))
+            else:
+                todo.append(first)
+    return leaves, seen
+
+
+@pytest.mark.parametrize("n", [1, 3, 4, 5, 17, 1000, 20000])
+def test_wide_tree_has_the_binary_leaves_once(n):
+    lo, hi = _boxes(n, n)
+    bvh = build_bvh(lo, hi, primitive="prism")
+    wide = collapse(bvh)
+    leaves, seen = _walk(wide)
+    binary = sorted((int(f), int(c)) for f, c in zip(bvh.node_first, bvh.node_count) if c > 0)
+    assert sorted(leaves) == binary
+    assert sorted(seen) == list(range(wide.node_count)), "every wide node reachable exactly once"
+    # The leaves partition the primitive order.
+    covered = np.zeros(n, int)
+    for first, count in leaves:
+        covered[first:first + count] += 1
+    assert (covered == 1).all()
+    # Two binary levels per wide level: the traversal stack is sized by this bound.
+    assert wide.depth <= (bvh.depth + 1) // 2
+
+
+def test_wide_boxes_are_the_binary_boxes_axis_major():
+    lo, hi = _boxes(500, 7)
+    bvh = build_bvh(lo, hi, primitive="prism")
+    wide = collapse(bvh)
+    wlo, whi = wide_boxes(wide, bvh.node_lo, bvh.node_hi)
+    assert wlo.shape == (wide.node_count, 4 * WIDTH)
+    for j in range(wide.node_count):
+        for k in range(WIDTH):
+            node = wide.slot_node[j, k]
+            got_lo, got_hi = wlo[j, k::WIDTH], whi[j, k::WIDTH]
+            if node < 0:  # an empty slot: the box t = +inf, never entered
+                assert got_lo[0] == np.inf and got_hi[0] == np.inf
+            else:
+                np.testing.assert_array_equal(got_lo, bvh.node_lo[node])
+                np.testing.assert_array_equal(got_hi, bvh.node_hi[node])
+
+
+def test_empty_database_has_one_empty_wide_node():
+    bvh = build_bvh(np.zeros((0, 4)), np.zeros((0, 4)))
+    wide = collapse(bvh)
+    assert wide.node_count == 1 and (wide.link == -1).all()

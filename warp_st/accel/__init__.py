@@ -1,0 +1,1 @@
+"""Acceleration structures over the 4D database: BVH build and the wide node layout."""

@@ -1,0 +1,1 @@
+"""Many frames: render tasks, sequences and sweeps, the Dask farm."""

@@ -1,0 +1,153 @@
+"""The single NumPy -> Warp crossing.
+
+Static arrays (topology, BVH links, materials) are uploaded once per database; the
+float arrays that carry positions are recentred on the render origin (the camera
+event) in float64 on the host and only then rounded to the kernel's precision, so
+absolute times of 1e6 or 1e9 cost no accuracy. Node boxes are rounded outward so a
+rounded box always contains its rounded primitives.
+"""
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from warp_st.accel.bvh import FlatBVH
+from warp_st.accel.bvh_wide import collapse, wide_boxes
+from warp_st.core.conventions import BOX_PAD_ULPS
+from warp_st.core.scene import Light
+from warp_st.kernels import Kernels
+from warp_st.kernels.spectrum import spectral_basis_inverse
+from warp_st.spacetime.extrude import SpacetimeMesh
+
+__all__ = ["StaticArrays", "make_geometry", "make_shading"]
+
+_DEVICE = "cpu"
+
+
+class StaticArrays:
+    """Frame-independent device arrays of one database."""
+
+    def __init__(self, k: Kernels, mesh: SpacetimeMesh, bvh: FlatBVH):
+        np_scalar = np.float32 if k.scalar == wp.float32 else np.float64
+        self.np_scalar = np_scalar
+        if mesh.primitive == "prism":
+            # The shading reads four vertex indices with barycentrics (b0, b1, b2, 0).
+            vidx, tri = mesh.prisms[:, [0, 1, 2, 0]], mesh.prism_tri
+            velocity = np.array([b.velocity for b in mesh.bodies], dtype=np.float64).reshape(-1, 3)
+            self.prism_velocity = velocity[mesh.tri_body[tri]] if len(tri) else np.zeros((0, 3))
+        else:
+            vidx, tri = mesh.tets, mesh.tet_tri
+        self.prim_vidx = wp.array(vidx.astype(np.int32), dtype=wp.vec4i, device=_DEVICE)
+        self.prim_tri = wp.array(tri.astype(np.int32), dtype=wp.int32, device=_DEVICE)
+        # The kernel traces the 4-wide form of the BVH (bvh_wide.py).
+        self.wide = collapse(bvh)
+        self.node_link = wp.array(self.wide.link, dtype=wp.vec4i, device=_DEVICE)
+        self.vert_normal = wp.array(mesh.vertex_normals.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
+        self.tri_normal = wp.array(mesh.tri_normal.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
+        self.tri_smooth = wp.array(mesh.tri_smooth, dtype=wp.int32, device=_DEVICE)
+        self.tri_size = wp.array(mesh.tri_size.astype(np_scalar), dtype=k.scalar, device=_DEVICE)
+        self.tri_body = wp.array(mesh.tri_body, dtype=wp.int32, device=_DEVICE)
+        self.tri_material = wp.array(mesh.tri_material, dtype=wp.int32, device=_DEVICE)
+        mats = mesh.materials or ()
+        diffuse = np.array([m.diffuse for m in mats], dtype=np_scalar).reshape(-1, 3)
+        emissive = np.array([m.emissive for m in mats], dtype=np_scalar).reshape(-1, 3)
+        self.mat_diffuse = wp.array(diffuse, dtype=k.vec3, device=_DEVICE)
+        self.mat_emissive = wp.array(emissive, dtype=k.vec3, device=_DEVICE)
+        metallic = np.array([m.metallic for m in mats], dtype=np_scalar).reshape(-1)
+        self.mat_metallic = wp.array(metallic, dtype=k.scalar, device=_DEVICE)
+        bodies = mesh.bodies
+        self.body_velocity = wp.array(
+            np.array([b.velocity for b in bodies], dtype=np_scalar).reshape(-1, 3), dtype=k.vec3, device=_DEVICE
+        )
+        self.body_gamma = wp.array(np.array([b.gamma for b in bodies], dtype=np_scalar), dtype=k.scalar, device=_DEVICE)
+        self.body_decoupled = wp.array(
+            np.array([1 if b.decoupled else 0 for b in bodies], dtype=np.int32), dtype=wp.int32, device=_DEVICE
+        )
+        self.body_events = np.array([[b.reference_time, *b.origin] for b in bodies], dtype=np.float64).reshape(-1, 4)
+
+
+def _outward(values64: np.ndarray, np_scalar, direction: float) -> np.ndarray:
+    """Round float64 values to ``np_scalar``, then BOX_PAD_ULPS ulps towards ``direction``.
+
+    The pad also covers the kernel's per-face rounding tolerance at box corners.
+    """
+    out = values64.astype(np_scalar)
+    for _ in range(BOX_PAD_ULPS):
+        out = np.nextafter(out, np_scalar(direction))
+    return out
+
+
+def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: FlatBVH, origin: np.ndarray):
+    """Geometry struct with vertices and boxes recentred on ``origin`` = (t_c, c)."""
+    g = k.Geometry()
+    ns = static.np_scalar
+    vert = (mesh.vertices - origin).astype(ns)
+    g.vert = wp.array(vert, dtype=k.vec4, device=_DEVICE)
+    if mesh.primitive == "prism":
+        # Per prism: its three bottom events at t0, then (t_hi, velocity); the second
+        # event's time slot (a copy of t0) carries t_lo instead (see extrude.prism_spans).
+        events = np.empty((len(mesh.prisms), 4, 4), dtype=ns)
+        events[:, :3] = vert[mesh.prisms[:, :3]]
+        span = (mesh.prism_span - origin[0]).astype(ns)
+        events[:, 1, 0] = span[:, 0]
+        events[:, 3, 0] = span[:, 1]
+        events[:, 3, 1:] = static.prism_velocity.astype(ns)
+        g.prim_event = wp.array(events.reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
+    else:
+        g.prim_event = wp.array(vert[mesh.tets.reshape(-1)], dtype=k.vec4, device=_DEVICE)
+    g.prim_f = g.prim_event.view(k.scalar)
+    g.prim_vidx = static.prim_vidx
+    g.prim_tri = static.prim_tri
+    g.tri_body = static.tri_body
+    node_lo, node_hi = _outward(bvh.node_lo - origin, ns, -np.inf), _outward(bvh.node_hi - origin, ns, np.inf)
+    g.root_lo = k.vec4(*node_lo[0].tolist())
+    g.root_hi = k.vec4(*node_hi[0].tolist())
+    lo, hi = wide_boxes(static.wide, node_lo, node_hi)
+    g.node_lo = wp.array(lo, dtype=k.vec16, device=_DEVICE)
+    g.node_hi = wp.array(hi, dtype=k.vec16, device=_DEVICE)
+    g.node_link = static.node_link
+    return g
+
+
+def make_shading(
+    k: Kernels,
+    static: StaticArrays,
+    lights: tuple[Light, ...],
+    origin: np.ndarray,
+    background,
+    max_depth: int,
+    *,
+    doppler_color: bool = False,
+    searchlight: bool = False,
+):
+    """Shading struct: materials, bodies and lights, positions recentred on ``origin``."""
+    ns = static.np_scalar
+    s = k.Shading()
+    s.vert_normal = static.vert_normal
+    s.tri_normal = static.tri_normal
+    s.tri_smooth = static.tri_smooth
+    s.tri_size = static.tri_size
+    s.tri_body = static.tri_body
+    s.tri_material = static.tri_material
+    s.mat_diffuse = static.mat_diffuse
+    s.mat_emissive = static.mat_emissive
+    s.mat_metallic = static.mat_metallic
+    s.body_origin = wp.array((static.body_events - origin).astype(ns).reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
+    s.body_velocity = static.body_velocity
+    s.body_gamma = static.body_gamma
+    s.body_decoupled = static.body_decoupled
+    kinds = np.array([0 if l.kind == "sphere" else 1 for l in lights], dtype=np.int32)
+    pos = np.array([l.position for l in lights], dtype=np.float64).reshape(-1, 3) - origin[1:]
+    dirs = np.array([l.direction for l in lights], dtype=np.float64).reshape(-1, 3)
+    rad = np.array([l.radiance for l in lights], dtype=np.float64).reshape(-1, 3)
+    s.light_kind = wp.array(kinds, dtype=wp.int32, device=_DEVICE)
+    s.light_pos = wp.array(pos.astype(ns), dtype=k.vec3, device=_DEVICE)
+    s.light_dir = wp.array(dirs.astype(ns), dtype=k.vec3, device=_DEVICE)
+    s.light_radiance = wp.array(rad.astype(ns), dtype=k.vec3, device=_DEVICE)
+    s.light_count = len(lights)
+    s.background = k.vec3(*[float(x) for x in background])
+    s.max_depth = int(max_depth)
+    s.basis_inv = k.mat33(*spectral_basis_inverse().reshape(-1).tolist())
+    s.color_shift = 1 if doppler_color else 0
+    s.searchlight = 1 if searchlight else 0
+    return s

@@ -1,0 +1,299 @@
+"""Temporal extrusion: triangles x worldlines -> prisms -> three tetrahedra each.
+
+docs/spec.md §2: an authored world-space point p of a body with pivot o, velocity v and
+reference time t_ref follows the worldline
+
+- coupled:   x(t) = o + v (t - t_ref) + A r,   A = I - (1 - 1/gamma) v^ v^T,  r = p - o
+  (the authored shape is the proper shape, Lorentz contracted along v about o);
+- decoupled: x(t) = o + v (t - t_ref) + r.
+
+Each body is sliced at lab-simultaneous times t_0 < ... < t_K covering its visible
+time window; the points at consecutive slices bound one prism per triangle. Thesis
+§4.3.1 splits each prism into three tetrahedra; we choose the diagonals by a rule on
+global vertex indices (each side quad is cut from its lower-index bottom vertex to its
+higher-index top vertex), so neighbouring prisms share faces and a closed mesh
+extrudes to a watertight world-tube. Every tetrahedron's vertex indices come out
+sorted ascending, which the kernel relies on to evaluate shared faces bit-identically.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from warp_st.core.lorentz import contraction_matrix
+from warp_st.core.scene import Body, Scene, surface_triangles
+from warp_st.spacetime.visibility import intervals
+
+__all__ = [
+    "SpacetimeMesh",
+    "extrude_scene",
+    "body_slices",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class SpacetimeMesh:
+    """The static 4D database, lab frame, float64 on the host.
+
+    vertices: events (t, x, y, z), shape (V, 4).
+    vertex_normals: shading normals of the contracted surface in the lab, (V, 3);
+        only meaningful for triangles with ``tri_smooth``.
+    tets: vertex indices, ascending in each row, shape (N, 4), int32.
+    tet_tri: the triangle each tetrahedron was extruded from, (N,), int32.
+    prisms: the same extrusion as prisms (each the union of three of the tetrahedra):
+        bottom vertex indices ascending, then the matching top ones, shape (P, 6), int32.
+    prism_tri: the triangle of each prism, (P,), int32.
+    prism_span: lab times (t_lo, t_hi) in which each prism's triangle is tested, (P, 2):
+        its segment [t0, t1] widened by PRISM_OVERLAP of its length where it meets the
+        next segment (see ``prism_spans``).
+    primitive: what a BVH built over this mesh indexes, "tet" or "prism"
+        (``renderer.build_database`` reorders that array into leaf order).
+    tri_normal: unit lab-frame normal of each contracted triangle, (T, 3).
+    tri_smooth: 1 where the triangle interpolates vertex normals, (T,), int32.
+    tri_size: longest edge of each contracted triangle, (T,).
+    tri_body, tri_material: indices into ``bodies`` / ``materials``, (T,), int32.
+    """
+
+    vertices: np.ndarray
+    vertex_normals: np.ndarray
+    tets: np.ndarray
+    tet_tri: np.ndarray
+    prisms: np.ndarray
+    prism_tri: np.ndarray
+    prism_span: np.ndarray
+    tri_normal: np.ndarray
+    tri_smooth: np.ndarray
+    tri_size: np.ndarray
+    tri_body: np.ndarray
+    tri_material: np.ndarray
+    materials: tuple
+    bodies: tuple
+    primitive: str = "tet"
+
+    @property
+    def tet_count(self) -> int:
+        return int(len(self.tets))
+
+    @property
+    def prim_count(self) -> int:
+        """Number of primitives of the kind a BVH over this mesh indexes."""
+        return int(len(self.prisms if self.primitive == "prism" else self.tets))
+
+    def prim_boxes(self) -> tuple[np.ndarray, np.ndarray]:
+        """4D bounding boxes (lo, hi) of every primitive, each (N, 4): a tetrahedron's
+        four events, or a prism's triangle swept over its whole span."""
+        if self.primitive != "prism":
+            ev = self.vertices[self.tets]
+            return ev.min(axis=1), ev.max(axis=1)
+        bottom = self.vertices[self.prisms[:, :3]]  # (P, 3, 4) at t0
+        top = self.vertices[self.prisms[:, 3:]]
+        t0, t1 = bottom[:, :1, :1], top[:, :1, :1]
+        rate = (top - bottom) / np.where(t1 > t0, t1 - t0, 1.0)  # (1, v) per vertex
+        ends = [bottom + rate * (span - t0) for span in (self.prism_span[:, None, 0:1], self.prism_span[:, None, 1:2])]
+        ev = np.concatenate(ends, axis=1)
+        return ev.min(axis=1), ev.max(axis=1)
+
+    def tet_events(self) -> np.ndarray:
+        """Events of every tetrahedron, shape (N, 4, 4): [tet, corner, (t, x, y, z)]."""
+        return self.vertices[self.tets]
+
+
+#: Fraction of a body's size it may sweep per time segment.
+SWEEP_FRACTION = 0.5
+#: A finely tessellated body gets shorter segments: a triangle's 4D box is as long as the
+#: body's sweep in its segment, so with triangles much smaller than the body every ray
+#: point lies in many boxes. A segment then sweeps at most TRIANGLE_SWEEP x the body's
+#: median triangle size, but never less than MIN_SWEEP_FRACTION of the body (memory).
+#: Measured (docs/performance.md, "Time-segment length"): a 3 x 3 grid of 128-segment
+#: spheres up to 0.9c traced 2x faster at a quarter of the half-size sweep, for 3x the
+#: tetrahedra; 24-segment spheres gained 20% at half of it.
+TRIANGLE_SWEEP = 4.0
+MIN_SWEEP_FRACTION = 0.125
+
+
+def body_slices(
+    body: Body, window: tuple[float, float], *, max_segments: int = 4096, fraction: float | None = None,
+    fine: bool = True,
+) -> np.ndarray:
+    """Slice times covering ``window`` for one body, ascending, at least two.
+
+    The window is split into K segments so that the body sweeps at most
+    ``segment_sweep(body)`` per segment (``fraction`` x its size when given; with
+    ``fine`` False, SWEEP_FRACTION x its size: the coarser rule the renderer falls
+    back to when the finer one would not fit in memory): the 4D boxes of its
+    primitives then stay within a triangle or two of their triangle.
+    """
+    t0, t1 = float(window[0]), float(window[1])
+    if fraction is None and not fine:
+        fraction = SWEEP_FRACTION
+    size = segment_sweep(body) if fraction is None else fraction * _body_size(body)
+    sweep = body.speed * (t1 - t0)
+    k = 1 if sweep <= size else int(min(np.ceil(sweep / size), max_segments))
+    return np.linspace(t0, t1, k + 1)
+
+
+def segment_sweep(body: Body) -> float:
+    """The distance ``body`` may move per time segment (see TRIANGLE_SWEEP)."""
+    size = _body_size(body)
+    edges = [longest_edges(np.asarray(s.points, dtype=np.float64), surface_triangles(s)) for s in body.surfaces]
+    edges = np.concatenate(edges) if edges else np.zeros(0)
+    tri = float(np.median(edges)) if len(edges) else size
+    return min(SWEEP_FRACTION * size, max(TRIANGLE_SWEEP * tri, MIN_SWEEP_FRACTION * size))
+
+
+def longest_edges(pts: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Length of each triangle's longest edge, (T,)."""
+    a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
+    return np.sqrt(np.max([((b - a) ** 2).sum(1), ((c - a) ** 2).sum(1), ((c - b) ** 2).sum(1)], axis=0,
+                          initial=0.0))
+
+
+def _body_size(body: Body) -> float:
+    pts = np.concatenate([s.points for s in body.surfaces]) if body.surfaces else np.zeros((1, 3))
+    extent = float(np.max(pts.max(axis=0) - pts.min(axis=0))) if len(pts) else 0.0
+    return max(extent, 1e-6)
+
+
+def extrude_scene(scene: Scene, windows: list, *, fine: bool = True) -> SpacetimeMesh:
+    """Extrude every body of ``scene`` over its visible time window.
+
+    windows[i] is the lab-time window of body i that the frames can see (already
+    intersected with its lifetime): an interval (lo, hi), a tuple of disjoint
+    intervals (each extruded on its own), or None when the body is never visible.
+    fine: time segments by ``segment_sweep`` (default) or by SWEEP_FRACTION of the body.
+    """
+    materials: list = []
+    mat_index: dict = {}
+    verts, vnorms, tets, tet_tri, prisms, prism_tri, spans = [], [], [], [], [], [], []
+    tri_normal, tri_smooth, tri_size, tri_body, tri_material = [], [], [], [], []
+    v_base = 0
+    t_base = 0
+
+    for b_index, (body, window) in enumerate(zip(scene.bodies, windows)):
+        parts = intervals(window)
+        if not parts or not body.surfaces:
+            continue
+        A = contraction_matrix(body.velocity, body.decoupled)
+        A_inv_t = np.linalg.inv(A).T
+        part_slices = [body_slices(body, part, fine=fine) for part in parts]  # each interval on its own
+        for surf in body.surfaces:
+            tris = surface_triangles(surf)
+            if len(tris) == 0:
+                continue
+            pts = np.asarray(surf.points, dtype=np.float64)
+            n_pts = len(pts)
+            # Contracted offsets from the pivot at the reference time.
+            local = (pts - body.origin) @ A.T + body.origin
+            if surf.normals is not None:
+                nrm = np.asarray(surf.normals, dtype=np.float64) @ A_inv_t.T
+                nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+            else:
+                nrm = np.zeros((n_pts, 3))
+
+            # Triangle normals of the contracted shape (lab frame, constant in time).
+            e1 = local[tris[:, 1]] - local[tris[:, 0]]
+            e2 = local[tris[:, 2]] - local[tris[:, 0]]
+            tri_size.append(longest_edges(local, tris))
+            fn = np.cross(e1, e2)
+            fn /= np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-300)
+            key = surf.material
+            if key not in mat_index:
+                mat_index[key] = len(materials)
+                materials.append(key)
+            n_tri = len(tris)
+            tri_normal.append(fn)
+            tri_smooth.append(np.full(n_tri, 1 if surf.normals is not None else 0, dtype=np.int32))
+            tri_body.append(np.full(n_tri, b_index, dtype=np.int32))
+            tri_material.append(np.full(n_tri, mat_index[key], dtype=np.int32))
+
+            for slices in part_slices:
+                ev = _slice_events(local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
+                verts.append(ev.reshape(-1, 4))
+                vnorms.append(np.broadcast_to(nrm, (len(slices), n_pts, 3)).reshape(-1, 3))
+                tets.append(_prism_tets(tris, n_pts, len(slices) - 1) + v_base)
+                tet_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), 3 * (len(slices) - 1)) + t_base)
+                prisms.append(_prisms(tris, n_pts, len(slices) - 1) + v_base)
+                prism_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), len(slices) - 1) + t_base)
+                spans.append(np.repeat(prism_spans(slices), n_tri, axis=0))
+                v_base += len(slices) * n_pts
+            t_base += n_tri
+
+    def cat(parts, shape, dtype):
+        return np.concatenate(parts).astype(dtype) if parts else np.zeros(shape, dtype=dtype)
+
+    return SpacetimeMesh(
+        vertices=cat(verts, (0, 4), np.float64),
+        vertex_normals=cat(vnorms, (0, 3), np.float64),
+        tets=cat(tets, (0, 4), np.int32),
+        tet_tri=cat(tet_tri, (0,), np.int32),
+        prisms=cat(prisms, (0, 6), np.int32),
+        prism_tri=cat(prism_tri, (0,), np.int32),
+        prism_span=cat(spans, (0, 2), np.float64),
+        tri_normal=cat(tri_normal, (0, 3), np.float64),
+        tri_smooth=cat(tri_smooth, (0,), np.int32),
+        tri_size=cat(tri_size, (0,), np.float64),
+        tri_body=cat(tri_body, (0,), np.int32),
+        tri_material=cat(tri_material, (0,), np.int32),
+        materials=tuple(materials),
+        bodies=tuple(scene.bodies),
+    )
+
+
+def _slice_events(local: np.ndarray, velocity: np.ndarray, t_ref: float, slices: np.ndarray) -> np.ndarray:
+    """Events of every point at every slice time, shape (K+1, P, 4)."""
+    k1, n = len(slices), len(local)
+    ev = np.empty((k1, n, 4))
+    ev[:, :, 0] = slices[:, None]
+    ev[:, :, 1:] = local[None, :, :] + (slices - t_ref)[:, None, None] * np.asarray(velocity)[None, None, :]
+    return ev
+
+
+def _prism_tets(tris: np.ndarray, n_pts: int, segments: int) -> np.ndarray:
+    """Three tetrahedra per prism, for every triangle and segment, shape (3 T K, 4).
+
+    With a < b < c the sorted point indices of a triangle and ' marking the next
+    slice (index + n_pts), the prism splits into (a, b, c, c'), (a, b, b', c'),
+    (a, a', b', c'): each side quad (i, j, j', i') with i < j is cut along i-j',
+    a rule both prisms sharing that quad follow. Every row is ascending.
+    """
+    s = np.sort(tris, axis=1)
+    a, b, c = s[:, 0], s[:, 1], s[:, 2]
+    one = np.stack(
+        [
+            np.stack([a, b, c, c + n_pts], axis=1),
+            np.stack([a, b, b + n_pts, c + n_pts], axis=1),
+            np.stack([a, a + n_pts, b + n_pts, c + n_pts], axis=1),
+        ]
+    )  # (3, T, 4)
+    offsets = (np.arange(segments, dtype=np.int64) * n_pts)[:, None, None, None]
+    return (one[None] + offsets).reshape(-1, 4)
+
+
+#: Consecutive prisms of a triangle overlap by this fraction of their segment's length.
+#: Each prism moves its triangle as x + v (t - t0) from its own (rounded) bottom
+#: events, so at a slice time the two neighbours' triangles differ by the rounding of
+#: the stored positions, and a ray through a vertex or edge exactly there could fall
+#: in the gap; with an overlap every hit time lies well inside one segment, whose
+#: prisms alone are watertight. Only slice times between two segments are widened:
+#: the extrusion's first and last times (lifetime ends, window ends) stay exact.
+PRISM_OVERLAP = 1.0e-2
+
+
+def prism_spans(slices: np.ndarray) -> np.ndarray:
+    """(t_lo, t_hi) of each segment between ``slices``, widened by PRISM_OVERLAP of its
+    length where it meets a neighbouring segment, shape (K, 2)."""
+    t0, t1 = slices[:-1], slices[1:]
+    pad = PRISM_OVERLAP * (t1 - t0)
+    lo, hi = t0.copy(), t1.copy()
+    lo[1:] -= pad[1:]
+    hi[:-1] += pad[:-1]
+    return np.column_stack([lo, hi])
+
+
+def _prisms(tris: np.ndarray, n_pts: int, segments: int) -> np.ndarray:
+    """Every triangle and segment as a prism: sorted bottom indices, then top, (T K, 6)."""
+    s = np.sort(tris, axis=1)
+    one = np.concatenate([s, s + n_pts], axis=1)  # (T, 6)
+    offsets = (np.arange(segments, dtype=np.int64) * n_pts)[:, None, None]
+    return (one[None] + offsets).reshape(-1, 6)
