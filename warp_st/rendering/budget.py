@@ -26,6 +26,7 @@ __all__ = [
     "MemoryRefusal",
     "estimate_bytes",
     "count_database",
+    "check_limits",
     "check_resources",
 ]
 
@@ -122,13 +123,9 @@ def _check_windows(scene: Scene, windows, max_depth: int) -> None:
                             f"beyond {MAX_WINDOW:g} (positions, speeds or times too large)")
 
 
-def check_resources(scene: Scene, windows, *, width: int, height: int, samples: int = 1, max_depth: int = 0,
-                    max_memory: int | None = None, fine: bool = True) -> int:
-    """Refuse (SceneError; MemoryRefusal over ``max_memory``) a render that would exceed
-    ``max_memory`` or the kernels' ranges. ``fine``: the time-segment rule
-    (``extrude.body_slices``). Called after the visibility windows and before the
-    extrusion. Returns the estimate.
-    """
+def check_limits(scene: Scene, windows, *, width: int, height: int, samples: int = 1, max_depth: int = 0) -> None:
+    """Refuse (SceneError) a render beyond the kernels' ranges: samples, bounces, pixels,
+    and visible windows whose coordinates pass MAX_WINDOW. Cheap: no counting."""
     src = scene.source
     if samples > MAX_SAMPLES:
         raise SceneError.at(src, None, "samples", f"must be <= {MAX_SAMPLES}, got {samples}")
@@ -138,6 +135,17 @@ def check_resources(scene: Scene, windows, *, width: int, height: int, samples: 
     if pixels > MAX_PIXELS:
         raise SceneError.at(src, None, "resolution", f"{width} x {height} is more than {MAX_PIXELS} pixels")
     _check_windows(scene, windows, max_depth)
+
+
+def check_resources(scene: Scene, windows, *, width: int, height: int, samples: int = 1, max_depth: int = 0,
+                    max_memory: int | None = None, fine: bool = True) -> int:
+    """Refuse (SceneError; MemoryRefusal over ``max_memory``) a render that would exceed
+    ``max_memory`` or the kernels' ranges. ``fine``: the time-segment rule
+    (``extrude.body_slices``). Called after the visibility windows and before the
+    extrusion. Returns the estimate.
+    """
+    check_limits(scene, windows, width=width, height=height, samples=samples, max_depth=max_depth)
+    pixels = int(width) * int(height)
     tets, verts, per_body = count_database(scene, windows, fine=fine)
     estimate = estimate_bytes(tets, verts, pixels)
     if max_memory is not None and estimate > max_memory:
@@ -146,7 +154,7 @@ def check_resources(scene: Scene, windows, *, width: int, height: int, samples: 
             i = int(np.argmax(per_body))
             biggest = f"; the largest body is {scene.bodies[i].prim_path} with {per_body[i]:,} tetrahedra"
         raise MemoryRefusal.at(
-            src, None, None,
+            scene.source, None, None,
             f"the render needs about {format_size(estimate)} ({tets:,} tetrahedra, {verts:,} vertices, "
             f"{pixels:,} pixels), more than the memory limit of {format_size(max_memory)}{biggest}; "
             "raise --max-memory (max_memory=) or shorten the frame range, lifetimes or speeds",

@@ -1,13 +1,16 @@
-"""Orchestrates rendering: options, the 4D database (built once), per-frame launches.
+"""Orchestrates rendering: options, the 4D database (built once per scene), per-frame launches.
 
 ``Renderer(scene, frames=[...])`` resolves the options, clips every body to the time
-window the frames can see, extrudes, builds the BVH and uploads the static arrays once;
+window the frames can see, extrudes, builds the BVH and uploads the static arrays once,
+or takes all of that from the scene's cache (``database_cache``: a second renderer of the
+same scene, options and frames builds nothing);
 ``render(frame)`` recentres on that frame's camera event, launches the megakernel over
 row tiles from a thread pool (Warp runs a CPU launch serially and releases the GIL,
 so the tiles use every core) and returns a :class:`~warp_st.output.film.Image`.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import time
@@ -22,8 +25,9 @@ from warp_st.core.limits import resolve_max_memory
 from warp_st.core.native_output import captured_output
 from warp_st.core.scene import CameraState, Scene, SceneError
 from warp_st.output.film import Image, quantize_time
-from warp_st.rendering.budget import MemoryRefusal, check_resources
-from warp_st.spacetime.adaptive import adapt_sphere_tessellation
+from warp_st.rendering import database_cache
+from warp_st.rendering.budget import MemoryRefusal, check_limits, check_resources, estimate_bytes
+from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
 from warp_st.spacetime.visibility import union, visibility_windows
 
@@ -79,6 +83,15 @@ class RenderStats:
     last_kernel_seconds: float = 0.0
     last_mean_visits: float = 0.0
     rays: int = 0
+    database_built: bool = False  # False: the scene's cached database served (database_cache)
+
+
+@dataclass
+class _BuildStats:
+    """How long the steps of a cached database's build took."""
+
+    extrude_seconds: float
+    bvh_seconds: float
 
 
 def _non_negative(value, what: str, source: str):
@@ -203,52 +216,91 @@ class Renderer:
         return self.light_speed or LightSpeed(cam.light_speed)
 
     def _build(self, cams: list[CameraState]) -> None:
+        """The database for cameras ``cams``: the scene's cached one when it covers them
+        (``database_cache``), else built now and cached on the scene."""
         from warp_st.kernels import get_kernels
         from warp_st.rendering.device import StaticArrays
 
         wp = _warp()
         t0 = time.perf_counter()
         modes = {self._frame_light_speed(c) for c in cams}
-        windows = None
         # The shutter moves each camera event along its worldline by up to `shutter`.
         shutter = self.shutter if self.samples > 1 else 0.0
         ends = cams + [c.advanced(shutter) for c in cams if shutter > 0.0]
         # UsdGeom.Spheres: the cheapest tessellation within half a pixel in every frame.
-        scene, self.sphere_segments = adapt_sphere_tessellation(
+        self.sphere_segments = sphere_tessellation(
             self.scene, ends, width=self.width, height=self.height,
             modes=sorted(m == LightSpeed.INFINITE for m in modes), max_depth=self.max_depth)
-        for mode in modes:  # union of the windows of every light-speed mode in use
-            w = visibility_windows(scene, cams, infinite=mode == LightSpeed.INFINITE, max_depth=self.max_depth,
-                                   shutter=shutter)
-            windows = w if windows is None else [union(a, b) for a, b in zip(windows, w)]
-        # Refuse before allocating: the tetrahedron count is known from the windows. Time
-        # segments follow finely tessellated bodies' triangles unless that does not fit;
-        # then they fall back to the coarser rule (faster to build, slower to trace).
-        limits = dict(width=self.width, height=self.height, samples=self.samples, max_depth=self.max_depth,
-                      max_memory=self.max_memory)
-        try:
-            self.memory_estimate = check_resources(scene, windows, **limits)
-            self.fine_segments = True
-        except MemoryRefusal:
-            self.memory_estimate = check_resources(scene, windows, fine=False, **limits)
-            self.fine_segments = False
-        mesh, bvh = build_database(scene, windows, self.primitive, fine=self.fine_segments)
-        t2 = time.perf_counter()
-        t1 = t2 - bvh.build_seconds
+        cache = database_cache.for_scene(self.scene)
+        tessellation = tuple(sorted(self.sphere_segments.items()))
+        scene = self.scene
+        if tessellation:  # the cache holds the bodies only: an entry must not keep its scene alive
+            bodies = cache.tessellated(tessellation, lambda: retessellated(self.scene, self.sphere_segments).bodies)
+            scene = dataclasses.replace(self.scene, bodies=bodies)
+        windows = cache.windows((tessellation, tuple(sorted(m.value for m in modes)), self.max_depth, shutter,
+                                 tuple((c.time, *np.asarray(c.position).tolist(), *np.asarray(c.velocity).tolist())
+                                       for c in cams)),
+                                lambda: self._windows(scene, cams, modes, shutter))
+        check_limits(scene, windows, width=self.width, height=self.height, samples=self.samples,
+                     max_depth=self.max_depth)
+        pixels = self.width * self.height
+        db = next((d for d in cache.candidates(tessellation, self.primitive, windows)
+                   if self.max_memory is None or estimate_bytes(d.tetrahedra, d.vertices, pixels) <= self.max_memory),
+                  None)
+        self.stats.database_built = db is None
+        if db is None:
+            db = self._new_database(scene, windows, tessellation, t0)
+            cache.add(db)
+        else:
+            cache.use(db)
         tc = time.perf_counter()
         self.kernels = get_kernels(self.precision.value, self.primitive)
         wp.load_module(self.kernels.render_pixels.module, device="cpu")
         self.stats.compile_seconds = time.perf_counter() - tc
         t3 = time.perf_counter()
-        self.static = StaticArrays(self.kernels, mesh, bvh)
-        self.mesh, self.bvh = mesh, bvh
-        self.stats.tetrahedra = mesh.tet_count
-        self.stats.primitives = mesh.prim_count
-        self.stats.bvh_nodes = bvh.node_count_total
-        self.stats.bvh_depth = bvh.depth
-        self.stats.extrude_seconds = t1 - t0
-        self.stats.bvh_seconds = t2 - t1
+        if self.precision.value not in db.static:
+            db.static[self.precision.value] = StaticArrays(self.kernels, db.mesh, db.bvh)
+        self.database = db
+        self.static = db.static[self.precision.value]
+        self.mesh, self.bvh = db.mesh, db.bvh
+        self.memory_estimate = estimate_bytes(db.tetrahedra, db.vertices, pixels)
+        self.fine_segments = db.fine
+        self.stats.tetrahedra = db.mesh.tet_count
+        self.stats.primitives = db.mesh.prim_count
+        self.stats.bvh_nodes = db.bvh.node_count_total
+        self.stats.bvh_depth = db.bvh.depth
+        self.stats.extrude_seconds = db.stats.extrude_seconds
+        self.stats.bvh_seconds = db.stats.bvh_seconds
         self.stats.upload_seconds = time.perf_counter() - t3
+
+    def _windows(self, scene: Scene, cams: list[CameraState], modes, shutter: float) -> list:
+        """Per body, the lab times the cameras can see: the union over the light-speed modes."""
+        windows = None
+        for mode in modes:
+            w = visibility_windows(scene, cams, infinite=mode == LightSpeed.INFINITE, max_depth=self.max_depth,
+                                   shutter=shutter)
+            windows = w if windows is None else [union(a, b) for a, b in zip(windows, w)]
+        return windows
+
+    def _new_database(self, scene: Scene, windows: list, tessellation: tuple, t0: float):
+        """Extrude and build over ``windows`` (refusing before allocating what would not fit)."""
+        # The tetrahedron count is known from the windows. Time segments follow finely
+        # tessellated bodies' triangles unless that does not fit; then they fall back to
+        # the coarser rule (faster to build, slower to trace).
+        limits = dict(width=self.width, height=self.height, samples=self.samples, max_depth=self.max_depth,
+                      max_memory=self.max_memory)
+        try:
+            check_resources(scene, windows, **limits)
+            fine = True
+        except MemoryRefusal:
+            check_resources(scene, windows, fine=False, **limits)
+            fine = False
+        mesh, bvh = build_database(scene, windows, self.primitive, fine=fine)
+        t2 = time.perf_counter()
+        built = _BuildStats(extrude_seconds=t2 - bvh.build_seconds - t0, bvh_seconds=bvh.build_seconds)
+        return database_cache.Database(tessellation=tessellation, primitive=self.primitive, fine=fine,
+                                       windows=windows, mesh=mesh, bvh=bvh, tetrahedra=mesh.tet_count,
+                                       vertices=len(mesh.vertices), stats=built)
 
     def describe(self) -> dict:
         s = self.stats
@@ -289,7 +341,8 @@ class Renderer:
         t_start = time.perf_counter()
         k = self.kernels
         origin = np.array([cam.time, *cam.position], dtype=np.float64)
-        geo = make_geometry(k, self.static, self.mesh, self.bvh, origin)
+        geo = self.database.geometry_for(self.precision.value, tuple(origin.tolist()),
+                                         lambda: make_geometry(k, self.static, self.mesh, self.bvh, origin))
         background = self.settings.background or (0.0, 0.0, 0.0)
         shd = make_shading(
             k, self.static, self.scene.lights, origin, background, self.max_depth,
@@ -383,8 +436,6 @@ def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fin
     a contiguous range), so primitive indices refer to that order. ``fine``: the
     time-segment rule (``extrude.body_slices``).
     """
-    import dataclasses
-
     from warp_st.accel.bvh import build_bvh
 
     if primitive not in PRIMITIVES:
@@ -408,6 +459,10 @@ def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fin
 
 
 def render_frame(scene: Scene, *, frame=None, **options) -> Image:
-    """Render a single frame (docs/spec.md §5 ``warp_st.render``)."""
+    """Render a single frame (docs/spec.md §5 ``warp_st.render``).
+
+    What the render builds stays cached on ``scene`` while the scene lives, so a second
+    call with the same options and frames builds nothing (``database_cache``;
+    docs/design/database-cache.md)."""
     renderer = Renderer(scene, frames=None if frame is None else [frame], **options)
     return renderer.render(frame)

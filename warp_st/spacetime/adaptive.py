@@ -14,7 +14,7 @@ from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Body, Scene
 from warp_st.spacetime.visibility import frame_window
 
-__all__ = ["adapt_sphere_tessellation", "sphere_segments_for_view", "min_pixel_angle", "retessellate_sphere"]
+__all__ = ["adapt_sphere_tessellation", "sphere_tessellation", "retessellated", "sphere_segments_for_view", "min_pixel_angle", "retessellate_sphere"]
 
 
 # --------------------------------------------------------------------------- adaptive spheres
@@ -193,33 +193,47 @@ def adapt_sphere_tessellation(scene: Scene, cameras, *, width: int, height: int,
     Returns (scene, {surface prim path: segments}); the scene is ``scene`` itself when it
     has no analytic sphere. Surfaces without ``sphere`` are untouched.
     """
+    chosen = sphere_tessellation(scene, cameras, width=width, height=height, modes=modes, max_depth=max_depth,
+                                 pixels=pixels)
+    return retessellated(scene, chosen), chosen
 
-    if not any(s.sphere is not None for b in scene.bodies for s in b.surfaces):
-        return scene, {}
+
+def sphere_tessellation(scene: Scene, cameras, *, width: int, height: int, modes=(False,), max_depth: int = 0,
+                        pixels: float = 0.5) -> dict[str, int]:
+    """The choice of ``adapt_sphere_tessellation`` without re-tessellating: {surface
+    prim path: segments} for every analytic sphere that gets one (cheap: no triangles)."""
     cameras = list(cameras)
+    if not cameras or not any(s.sphere is not None for b in scene.bodies for s in b.surfaces):
+        return {}
     angle = min((min_pixel_angle(c, width, height) for c in cameras), default=np.inf)
     mirrors = max_depth > 0 and any(s.material.metallic > 0.0 for b in scene.bodies for s in b.surfaces)
     chosen: dict[str, int] = {}
-    bodies = []
     for body in scene.bodies:
-        surfaces = []
-        changed = False
         for surf in body.surfaces:
-            if surf.sphere is None or not cameras:
-                surfaces.append(surf)
+            if surf.sphere is None:
                 continue
             radius, m = surf.sphere
             m = np.asarray(m, dtype=np.float64).reshape(4, 4)
             r_world = float(radius) * float(np.linalg.svd(m[:3, :3], compute_uv=False).max())
             distance = _sphere_view_distance(body, m[3, :3], r_world, cameras, modes)
             if np.isnan(distance):  # no bound on the magnification: keep the reader's tessellation
-                surfaces.append(surf)
                 continue
             n = sphere_segments_for_view(r_world, distance, angle, pixels=pixels)
             if mirrors:  # reflections can magnify: never coarser than the reader's default
                 n = max(n, tessellate.DEFAULT_SPHERE_SEGMENTS)
             chosen[surf.prim_path] = n
-            surfaces.append(retessellate_sphere(surf, n))
-            changed = True
-        bodies.append(dataclasses.replace(body, surfaces=tuple(surfaces)) if changed else body)
-    return dataclasses.replace(scene, bodies=tuple(bodies)), chosen
+    return chosen
+
+
+def retessellated(scene: Scene, chosen: dict[str, int]) -> Scene:
+    """``scene`` with every analytic sphere named in ``chosen`` re-tessellated at its
+    segments (``scene`` itself when ``chosen`` is empty)."""
+    if not chosen:
+        return scene
+    bodies = []
+    for body in scene.bodies:
+        surfaces = tuple(retessellate_sphere(s, chosen[s.prim_path]) if s.sphere is not None and s.prim_path in chosen
+                         else s for s in body.surfaces)
+        changed = any(a is not b for a, b in zip(surfaces, body.surfaces))
+        bodies.append(dataclasses.replace(body, surfaces=surfaces) if changed else body)
+    return dataclasses.replace(scene, bodies=tuple(bodies))

@@ -1,0 +1,248 @@
+#!/usr/bin/env python3
+"""Issue 17's ratio table: warm and first renders against Warp's wp.Mesh on the same rays.
+
+A benchmark, not a test: it asserts nothing. Every ratio is measured in one run, the two
+sides timed back to back in each repetition (medians of ``--runs``), so the machine's
+drift between repetitions cancels; the CPU model heads the table.
+
+- static:  warm ``warp_st.render`` (the public call, everything included: options,
+  database look-up, launch, film read-back) of 16 static spheres (128 longitudes,
+  ~254k triangles), unlit, against ``wp.mesh_query_ray`` closest hits of the same
+  primary rays over one ``wp.Mesh`` of all triangles (ratio = wp.Mesh time / ours,
+  >= 1 means ours is faster);
+- motion:  the same render with the spheres moving at 0.3-0.9c against at rest
+  (ratio = moving time / resting time);
+- first:   the first render of a new 1.03M-triangle static scene (kernels cached)
+  against ``wp.Mesh`` build + query (ratio = ours / theirs, <= 2 is the goal).
+
+    python3 examples/benchmarks/bench_two_level.py               # 512 x 512, 5 runs
+    python3 examples/benchmarks/bench_two_level.py --runs 7 --tables static,motion
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+TABLES = ("static", "motion", "first")
+#: (speed, direction) of the moving spheres, cycled: 0.3c to 0.9c along the image axes.
+MOTIONS = ((0.3, (1, 0, 0)), (0.5, (0, 1, 0)), (0.7, (-1, 0, 0)), (0.9, (1, 1, 0)))
+
+
+def cpu_model() -> str:
+    try:
+        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=False).stdout
+        for line in out.splitlines():
+            if line.startswith("Model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def spheres_scene(segments: int, *, moving: bool):
+    """16 spheres of radius 1 on a 4 x 4 grid at z = -12 in front of a camera at the
+    origin (t_c = 0) looking down -Z; each body's reference time puts its centre on
+    the camera's past lightcone at its grid position."""
+    from warp_st.core import tessellate
+    from warp_st.core.scene import Body, CameraState, Material, RenderSettings, Scene, Surface
+
+    cam = CameraState("/Camera", 0.0, np.zeros(3), np.eye(3), focal_length=27.0, horizontal_aperture=36.0,
+                      vertical_aperture=36.0)
+    pts, tris, nrm = tessellate.sphere(1.0, segments)
+    bodies = []
+    for i in range(16):
+        centre = np.array([(i % 4 - 1.5) * 3.0, (i // 4 - 1.5) * 3.0, -12.0])
+        speed, direction = MOTIONS[i % len(MOTIONS)] if moving else (0.0, (1, 0, 0))
+        v = speed * np.asarray(direction, float) / np.linalg.norm(direction)
+        path = f"/Spheres/S{i}"
+        surf = Surface(path, pts + centre, tris, Material(diffuse=(0.2 + 0.05 * i, 0.5, 0.7)), nrm)
+        bodies.append(Body(path, (surf,), centre, v, -float(np.linalg.norm(centre)), (-math.inf, math.inf)))
+    return Scene(source="<bench:spheres>", bodies=tuple(bodies), lights=(), cameras=(cam.prim_path,),
+                 settings=RenderSettings(), default_camera=cam.prim_path,
+                 camera_state=lambda path, frame: dataclasses.replace(cam, time=float(frame)))
+
+
+def pixel_directions(scene, width, height):
+    """The renderer's primary ray directions (docs/spec.md §3 pinhole), float32 (N, 3)."""
+    cam = scene.camera_state(scene.default_camera, 0.0)
+    i = np.arange(width) + 0.5
+    j = np.arange(height) + 0.5
+    h_ap = float(cam.horizontal_aperture)
+    v_ap = h_ap * height / width
+    X, Y = np.meshgrid((2.0 * i / width - 1.0) * h_ap / 2 / cam.focal_length,
+                       (1.0 - 2.0 * j / height) * v_ap / 2 / cam.focal_length)
+    d = np.stack([X, Y, -np.ones_like(X)], axis=-1).reshape(-1, 3) @ np.asarray(cam.rotation).T
+    return (d / np.linalg.norm(d, axis=1, keepdims=True)).astype(np.float32)
+
+
+class MeshQueries:
+    """wp.Mesh over every triangle of a static scene and closest-hit queries of rays from
+    the camera at the origin, launched in the renderer's tiles on 1 or 2 threads."""
+
+    def __init__(self, scene, dirs):
+        import warp as wp
+
+        from warp_st.rendering.renderer import _TILE_PIXELS
+
+        self.wp = wp
+        surfaces = [s for b in scene.bodies for s in b.surfaces]
+        self.points = np.concatenate([s.points for s in surfaces]).astype(np.float32)
+        base = np.cumsum([0] + [len(s.points) for s in surfaces])
+        self.indices = np.concatenate([s.triangles + o for s, o in zip(surfaces, base)]).astype(np.int32).reshape(-1)
+        n = len(dirs)
+        self.dirs = wp.array(dirs, dtype=wp.vec3, device="cpu")
+        self.origins = wp.zeros(n, dtype=wp.vec3, device="cpu")
+        self.face = wp.zeros(n, dtype=wp.int32, device="cpu")
+        self.t = wp.zeros(n, dtype=wp.float32, device="cpu")
+        self.tiles = [(o, min(o + _TILE_PIXELS, n)) for o in range(0, n, _TILE_PIXELS)]
+        self.kernel = _mesh_kernel(wp)
+        self.pool = ThreadPoolExecutor(max_workers=2)
+        self.build()
+        self.query(2)  # compile / load the kernel, first touch
+
+    def build(self) -> float:
+        t0 = time.perf_counter()
+        wp = self.wp
+        self.mesh = wp.Mesh(points=wp.array(self.points, dtype=wp.vec3, device="cpu"),
+                            indices=wp.array(self.indices, dtype=wp.int32, device="cpu"))
+        return time.perf_counter() - t0
+
+    def query(self, threads: int) -> float:
+        wp, mid = self.wp, self.mesh.id
+
+        def launch(tile):
+            a, b = tile
+            wp.launch(self.kernel, dim=b - a, inputs=[mid, self.origins[a:b], self.dirs[a:b], self.face[a:b],
+                                                        self.t[a:b]], device="cpu")
+
+        t0 = time.perf_counter()
+        if threads == 1:
+            for tile in self.tiles:
+                launch(tile)
+        else:
+            list(self.pool.map(launch, self.tiles))
+        return time.perf_counter() - t0
+
+
+def _mesh_kernel(wp):
+    @wp.kernel(enable_backward=False, module="unique")
+    def mesh_rays(mesh: wp.uint64, origins: wp.array(dtype=wp.vec3), dirs: wp.array(dtype=wp.vec3),
+                  out_face: wp.array(dtype=wp.int32), out_t: wp.array(dtype=float)):
+        i = wp.tid()
+        q = wp.mesh_query_ray(mesh, origins[i], dirs[i], 1.0e30)
+        out_face[i] = wp.where(q.result, q.face, -1)
+        out_t[i] = wp.where(q.result, q.t, wp.inf)
+
+    return mesh_rays
+
+
+def timed_render(scene, args, threads):
+    import warp_st
+
+    t0 = time.perf_counter()
+    img = warp_st.render(scene, frame=0, width=args.width, height=args.height, threads=threads)
+    return time.perf_counter() - t0, img
+
+
+def med(values) -> float:
+    return statistics.median(values)
+
+
+def table_static(args, log):
+    scene = spheres_scene(128, moving=False)
+    tris = sum(b.triangle_count for b in scene.bodies)
+    mesh = MeshQueries(scene, pixel_directions(scene, args.width, args.height))
+    timed_render(scene, args, 2)  # first render: builds what the scene caches
+    rows = []
+    for threads in (1, 2):
+        ours, theirs = [], []
+        for _ in range(args.runs):
+            ours.append(timed_render(scene, args, threads)[0])
+            theirs.append(mesh.query(threads))
+        rows.append((f"warm render, {tris:,} static triangles, {args.width}x{args.height}, {threads} thr",
+                     med(ours), med(theirs), med(theirs) / med(ours), "wp.Mesh / ours"))
+        log(f"  static {threads} thr: ours {1e3 * med(ours):.1f} ms, wp.Mesh {1e3 * med(theirs):.1f} ms")
+    return rows
+
+
+def table_motion(args, log):
+    rest, moving = spheres_scene(128, moving=False), spheres_scene(128, moving=True)
+    timed_render(rest, args, 2)
+    timed_render(moving, args, 2)
+    rows = []
+    for threads in (1, 2):
+        a, b = [], []
+        for _ in range(args.runs):
+            b.append(timed_render(moving, args, threads)[0])
+            a.append(timed_render(rest, args, threads)[0])
+        rows.append((f"warm render, 16 spheres at 0.3-0.9c against at rest, {threads} thr", med(b), med(a),
+                     med(b) / med(a), "moving / resting"))
+        log(f"  motion {threads} thr: moving {1e3 * med(b):.1f} ms, resting {1e3 * med(a):.1f} ms")
+    return rows
+
+
+def table_first(args, log):
+    scene = spheres_scene(256, moving=False)
+    tris = sum(b.triangle_count for b in scene.bodies)
+    mesh = MeshQueries(scene, pixel_directions(scene, args.width, args.height))
+    timed_render(dataclasses.replace(scene), args, 2)  # kernels compiled / loaded
+    rows = []
+    for threads in (1, 2):
+        ours, theirs = [], []
+        for _ in range(args.runs):
+            fresh = dataclasses.replace(scene)  # a new Scene object: nothing cached for it
+            ours.append(timed_render(fresh, args, threads)[0])
+            theirs.append(mesh.build() + mesh.query(threads))
+        rows.append((f"first render, {tris:,} static triangles, {threads} thr", med(ours), med(theirs),
+                     med(ours) / med(theirs), "ours / (wp.Mesh build + query)"))
+        log(f"  first {threads} thr: ours {1e3 * med(ours):.1f} ms, wp.Mesh build+query {1e3 * med(theirs):.1f} ms")
+    return rows
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--runs", type=int, default=5, help="repetitions per measurement (median; default 5)")
+    p.add_argument("--width", type=int, default=512)
+    p.add_argument("--height", type=int, default=512)
+    p.add_argument("--tables", default=",".join(TABLES), help=f"comma-separated subset of {','.join(TABLES)}")
+    args = p.parse_args(argv)
+    tables = [t for t in args.tables.split(",") if t]
+    unknown = sorted(set(tables) - set(TABLES))
+    if unknown or args.runs < 1:
+        p.error(f"unknown table {', '.join(unknown)}" if unknown else "--runs must be >= 1")
+    from warp_st.rendering.renderer import _warp
+
+    _warp()
+
+    def log(msg):
+        print(msg, file=sys.stderr, flush=True)
+
+    rows = []
+    for name in tables:
+        log(f"[{name}]")
+        rows += {"static": table_static, "motion": table_motion, "first": table_first}[name](args, log)
+    print(f"CPU: {cpu_model()}; medians of {args.runs} runs, both sides timed back to back in each run")
+    print()
+    print("| measure | A ms | B ms | ratio | ratio is |")
+    print("|---|---|---|---|---|")
+    for label, a, b, ratio, what in rows:
+        print(f"| {label} | {1e3 * a:.1f} | {1e3 * b:.1f} | {ratio:.2f}x | {what} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

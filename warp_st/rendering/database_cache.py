@@ -1,0 +1,172 @@
+"""The database belongs to the scene: what renders build is cached on the Scene object.
+
+``warp_st.render(scene, frame=k)`` makes a new :class:`~warp_st.rendering.renderer.Renderer`
+each call; without this cache every call would re-tessellate, extrude, box and build the
+BVH again. The renderer looks here first and builds only what is missing.
+
+Keys. Everything a build depends on is either in the key or checked on reuse:
+
+- the scene object itself (identity): :class:`~warp_st.core.scene.Scene` is a frozen
+  dataclass, so a scene changed in Python (``dataclasses.replace``, a new ``load``) is a
+  new object and never sees another scene's entries;
+- the sphere tessellation chosen for the frames, resolution, lens, light-speed modes and
+  bounce limit (``spacetime.adaptive.sphere_tessellation``): its {prim: segments} map;
+- the primitive kind ("prism" / "tet") and the time-segment rule (fine / coarse);
+- the visible windows (which the frames, shutter, light-speed modes and bounce limit
+  determine): a database is reused only when its windows cover every body's new window,
+  so it holds all the geometry the new frames can see; a wider window adds only exact
+  geometry, never changes what a ray meets;
+- the kernels' precision (the uploaded arrays, one set per precision in an entry).
+
+The visible windows themselves are cached too, keyed by the tessellation, the
+light-speed modes, bounce limit, shutter and every camera event and velocity.
+
+Lifetime: entries live as long as the Scene object (a ``weakref.WeakKeyDictionary``
+keyed by it): dropping the last reference to a scene frees them. ``clear(scene)`` (or
+``clear()`` for every scene) frees them earlier.
+
+Memory: per scene at most MAX_DATABASES databases and MAX_TESSELLATIONS re-tessellated
+scenes and MAX_WINDOWS window lists (a few floats per body each), least recently used
+dropped first. A database costs about what one render of it
+holds (``budget.estimate_bytes``: ~465 bytes per tetrahedron and ~84 per vertex on the
+host and the device) plus its last MAX_GEOMETRIES recentred geometries (float32
+positions of every vertex and primitive event, and the node boxes, per camera event).
+docs/design/database-cache.md says the same for users.
+"""
+from __future__ import annotations
+
+import threading
+import weakref
+from collections import OrderedDict
+from dataclasses import dataclass, field
+
+from warp_st.spacetime.visibility import intervals
+
+__all__ = ["MAX_DATABASES", "MAX_TESSELLATIONS", "MAX_GEOMETRIES", "MAX_WINDOWS", "Database", "SceneCache", "for_scene",
+           "clear", "builds", "covers"]
+
+#: Databases kept per scene (a sequence renders each frame from one database; sweeps of
+#: a few option sets alternate between a few).
+MAX_DATABASES = 4
+#: Re-tessellated copies of a scene kept (one per sphere tessellation in use).
+MAX_TESSELLATIONS = 4
+#: Recentred geometries kept per database and precision (one per camera event).
+MAX_GEOMETRIES = 2
+#: Visible windows kept per scene (one per set of camera events and options; small).
+MAX_WINDOWS = 64
+
+_lock = threading.Lock()
+_caches: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_builds = 0
+
+
+@dataclass(eq=False)
+class Database:
+    """One built database: the extrusion and BVH over ``windows`` of a tessellated scene.
+
+    ``stats``: how long its build took (``renderer._BuildStats``); ``static`` its uploaded
+    arrays per precision, ``geometry`` its recentred geometries per (precision, camera
+    event)."""
+
+    tessellation: tuple
+    primitive: str
+    fine: bool
+    windows: list
+    mesh: object
+    bvh: object
+    tetrahedra: int
+    vertices: int
+    stats: object
+    static: dict = field(default_factory=dict)
+    geometry: OrderedDict = field(default_factory=OrderedDict)
+
+    def geometry_for(self, precision: str, origin: tuple, make):
+        """The geometry recentred on ``origin`` (made by ``make()`` when missing)."""
+        return _lru(self.geometry, (precision, origin), make, MAX_GEOMETRIES)
+
+
+class SceneCache:
+    """The entries of one scene (see the module docstring)."""
+
+    def __init__(self):
+        self.tessellations: OrderedDict = OrderedDict()
+        self._windows: OrderedDict = OrderedDict()
+        self.databases: list[Database] = []
+
+    def windows(self, key, make):
+        """The visible windows of the cameras and options in ``key`` (made by ``make()``
+        when missing): the body balls and shadow bounds cost more than a look-up."""
+        return _lru(self._windows, key, make, MAX_WINDOWS)
+
+    def tessellated(self, key, make):
+        """The scene's bodies re-tessellated as ``key`` says (made by ``make()`` when
+        missing). Bodies, not a Scene: no entry may refer to the scene it is cached on,
+        or the scene would never be freed."""
+        return _lru(self.tessellations, key, make, MAX_TESSELLATIONS)
+
+    def candidates(self, tessellation, primitive, windows) -> list[Database]:
+        """Databases of this tessellation and primitive whose windows cover ``windows``,
+        most recently used first, fine time segments before coarse."""
+        found = [d for d in reversed(self.databases)
+                 if d.tessellation == tessellation and d.primitive == primitive and covers(d.windows, windows)]
+        return sorted(found, key=lambda d: not d.fine)
+
+    def use(self, db: Database) -> None:
+        """Mark ``db`` most recently used."""
+        self.databases.remove(db)
+        self.databases.append(db)
+
+    def add(self, db: Database) -> None:
+        global _builds
+        with _lock:
+            _builds += 1
+        self.databases.append(db)
+        while len(self.databases) > MAX_DATABASES:
+            self.databases.pop(0)
+
+
+def _lru(entries: OrderedDict, key, make, limit: int):
+    """``entries[key]``, made by ``make()`` when missing; least recently used dropped past ``limit``."""
+    if key in entries:
+        entries.move_to_end(key)
+        return entries[key]
+    value = entries[key] = make()
+    while len(entries) > limit:
+        entries.popitem(last=False)
+    return value
+
+
+def for_scene(scene) -> SceneCache:
+    """The cache of ``scene`` (created empty on first use)."""
+    with _lock:
+        cache = _caches.get(scene)
+        if cache is None:
+            cache = _caches[scene] = SceneCache()
+        return cache
+
+
+def clear(scene=None) -> None:
+    """Free the entries of ``scene`` (None: of every scene)."""
+    with _lock:
+        if scene is None:
+            _caches.clear()
+        else:
+            _caches.pop(scene, None)
+
+
+def builds() -> int:
+    """Databases built (added to a cache) in this process so far: tests count builds by it."""
+    return _builds
+
+
+def covers(cached, wanted) -> bool:
+    """True when every body's ``wanted`` window lies inside its ``cached`` window (both
+    per-body lists of windows, see ``visibility.intervals``)."""
+    if len(cached) != len(wanted):
+        return False
+    for have, need in zip(cached, wanted):
+        have = intervals(have)
+        for lo, hi in intervals(need):
+            if not any(a <= lo and hi <= b for a, b in have):
+                return False
+    return True
