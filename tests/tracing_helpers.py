@@ -45,6 +45,7 @@ class Database:
         self.origin = np.asarray(origin, dtype=np.float64)
         self.geo = make_geometry(self.k, self.static, self.mesh, self.bvh, self.origin)
         self.prim_tri = self.mesh.prism_tri if primitive == "prism" else self.mesh.tet_tri
+        self.prim_count = self.mesh.prim_count
 
     def cast(self, origins, dirs, *, finite=True, brute=False):
         """(primitive, s, visits) for rays with lab origins (N, 4) and unit directions (N, 3);
@@ -58,11 +59,36 @@ class Database:
         tet = wp.zeros(n, dtype=wp.int32, device="cpu")
         s = wp.zeros(n, dtype=k.scalar, device="cpu")
         if brute:
-            wp.launch(k.brute_rays, dim=n, inputs=[self.geo, self.mesh.prim_count, o, d, int(finite), tet, s], device="cpu")
+            wp.launch(k.brute_rays, dim=n, inputs=[self.geo, self.prim_count, o, d, int(finite), tet, s], device="cpu")
             return tet.numpy(), s.numpy().astype(np.float64), None
         visits = wp.zeros(n, dtype=wp.int32, device="cpu")
         wp.launch(k.cast_rays, dim=n, inputs=[self.geo, o, d, int(finite), tet, s, visits], device="cpu")
         return tet.numpy(), s.numpy().astype(np.float64), visits.numpy()
+
+
+class RigidDatabase(Database):
+    """The two-level rigid database of a scene (bottom levels per shape, a top level over
+    the motion segments of fixed windows), uploaded for one render origin. ``cast``
+    returns global triangle indices (``prim_tri`` is the identity), numbered as the
+    extrusion numbers them when every body has a window."""
+
+    def __init__(self, scene, windows, *, origin=(0, 0, 0, 0)):
+        from warp_st.accel.instances import BottomLevels, build_top_level
+        from warp_st.rendering.device_rigid import RigidArrays, make_rigid_geometry
+        from warp_st.spacetime.rigid import motion_segments, rigid_shapes
+
+        _warp()
+        self.k = get_kernels("float32", "rigid")
+        self.np_scalar = np.float32
+        self.shapes = rigid_shapes(scene)
+        self.bottom = BottomLevels(self.shapes)
+        self.segments = motion_segments(scene, self.shapes, windows)
+        self.bvh = build_top_level(self.segments)
+        self.static = RigidArrays(self.k, self.shapes, self.bottom, self.segments, self.bvh)
+        self.origin = np.asarray(origin, dtype=np.float64)
+        self.geo = make_rigid_geometry(self.k, self.static, self.segments, self.bvh, self.origin)
+        self.prim_tri = np.arange(self.shapes.triangle_count)
+        self.prim_count = self.segments.count
 
 
 def solve_tets_f64(events, origin, direction, finite=True):

@@ -322,11 +322,12 @@ def time_render(r, frame, runs: int, threads=None):
 
 
 def _build(scene, **kw):
-    """A Renderer and the seconds its constructor took."""
+    """A Renderer of the 4D extrusion (what these suites measure; issue 17's two-level
+    path is examples/benchmarks/bench_two_level.py's) and the seconds its constructor took."""
     from warp_st.rendering.renderer import Renderer
 
     t0 = time.perf_counter()
-    r = Renderer(scene, **kw)
+    r = Renderer(scene, **{"primitive": "prism", **kw})
     return r, time.perf_counter() - t0
 
 
@@ -722,7 +723,7 @@ class Bench:
         t0 = time.perf_counter()
         from warp_st.rendering.renderer import Renderer
 
-        r = Renderer(scene, frames=frames, width=w, height=h)
+        r = Renderer(scene, frames=frames, width=w, height=h, primitive="prism")
         build = time.perf_counter() - t0
         per = []
         for f in frames:
@@ -734,7 +735,7 @@ class Bench:
         rebuild, single_tets = [], []
         for f in frames:
             t1 = time.perf_counter()
-            rr = Renderer(scene, frames=[f], width=w, height=h)
+            rr = Renderer(scene, frames=[f], width=w, height=h, primitive="prism")
             rr.render(f)
             rebuild.append(time.perf_counter() - t1)
             single_tets.append(rr.stats.tetrahedra)

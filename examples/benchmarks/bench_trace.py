@@ -248,7 +248,7 @@ def bench_renderer(name, scene, args, log, first):
     _warp()
     before = cache_entries(wp) if first else None
     t0 = time.perf_counter()
-    r = Renderer(scene, frames=[0], width=args.width, height=args.height)
+    r = Renderer(scene, frames=[0], width=args.width, height=args.height, primitive="prism")
     ctor = time.perf_counter() - t0
     st = r.stats
     res = {

@@ -110,9 +110,21 @@ def test_count_before_build_equals_the_build(scene_file, frames):
     """The cheap count (windows -> body_slices -> 3 T K per body) is exactly the database
     the build makes, so the estimate is computed from the real numbers."""
     scene = warp_st.load(str(scene_file))
-    r = Renderer(scene, frames=frames, width=16, height=12)
+    r = Renderer(scene, frames=frames, width=16, height=12, primitive="prism")
     assert r.stats.tetrahedra > 0
     assert r.memory_estimate == budget.estimate_bytes(r.stats.tetrahedra, len(r.mesh.vertices), 16 * 12)
+
+
+@pytest.mark.parametrize("frames", [[0.0], [0.0, 20.0, 40.0]])
+def test_rigid_estimate_counts_triangles_whatever_the_frames(scene_file, frames):
+    """The rigid (two-level) database holds each triangle once at rest: its estimate is
+    the scene's triangles and vertices, the same for one frame or a span of them."""
+    scene = warp_st.load(str(scene_file))
+    r = Renderer(scene, frames=frames, width=16, height=12)
+    assert r.primitive == "rigid" and r.stats.triangles == r.database.shapes.triangle_count > 0
+    vertices = len(r.database.shapes.vertex_normals)
+    assert r.memory_estimate == budget.estimate_rigid_bytes(r.stats.triangles, vertices, 16 * 12)
+    assert r.memory_estimate == Renderer(scene, frames=[0.0], width=16, height=12).memory_estimate
 
 
 def test_estimate_bounds_the_measured_peak(tmp_path):
@@ -128,10 +140,10 @@ def test_estimate_bounds_the_measured_peak(tmp_path):
     path.write_text(SCENE.split('def Xform "World"')[0] + 'def Camera "Cam"\n{\ndouble3 xformOp:translate = '
                     '(0, 0, 10)\nuniform token[] xformOpOrder = ["xformOp:translate"]\n}\n' + bodies)
     scene = warp_st.load(str(path))
-    Renderer(scene, frames=[0.0], width=8, height=6)  # kernels compiled outside the measurement
+    Renderer(scene, frames=[0.0], width=8, height=6, primitive="prism")  # kernels compiled outside the measurement
     tracemalloc.start()
     try:
-        r = Renderer(scene, frames=[float(f) for f in range(0, 21, 2)], width=8, height=6)
+        r = Renderer(scene, frames=[float(f) for f in range(0, 21, 2)], width=8, height=6, primitive="prism")
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
@@ -148,7 +160,7 @@ def test_max_memory_refuses_before_allocating(scene_file, monkeypatch):
     called = []
     monkeypatch.setattr(renderer_module, "build_database", lambda *a: called.append(a))
     with pytest.raises(SceneError) as info:
-        Renderer(scene, frames=[0.0], width=8, height=6, max_memory=64 * 1024)
+        Renderer(scene, frames=[0.0], width=8, height=6, max_memory=64 * 1024, primitive="prism")
     text = str(info.value)
     assert scene_file.name in text and "tetrahedra" in text and "memory limit of 64.0 KiB" in text, text
     assert "/World/Mover" in text  # the largest body
@@ -157,9 +169,10 @@ def test_max_memory_refuses_before_allocating(scene_file, monkeypatch):
 
 def test_max_memory_cli_exit_2_and_nothing_written(scene_file, tmp_path, capsys):
     out = tmp_path / "out.exr"
-    code, _, err = run(capsys, "render", scene_file, "-o", out, "--width", 8, "--height", 6, "--max-memory", "64K")
+    # The rigid database of this scene needs ~19 KiB at 8 x 6 pixels.
+    code, _, err = run(capsys, "render", scene_file, "-o", out, "--width", 8, "--height", 6, "--max-memory", "16K")
     line = one_line(err)
-    assert code == 2 and scene_file.name in line and "tetrahedra" in line and "KiB" in line, err
+    assert code == 2 and scene_file.name in line and "triangles" in line and "KiB" in line, err
     assert not out.exists()
     code, _, err = run(capsys, "render", scene_file, "-o", out, "--max-memory", "lots")
     assert code == 2 and "--max-memory" in one_line(err)
@@ -505,14 +518,15 @@ def test_time_segments_fall_back_to_the_coarser_rule_when_memory_is_short():
     from warp_st.spacetime.visibility import visibility_windows
 
     scene = sphere_grid_scene(96, 2)
-    fine_r = Renderer(scene, frames=[0.0], width=48, height=27)
+    fine_r = Renderer(scene, frames=[0.0], width=48, height=27, primitive="prism")
     assert fine_r.fine_segments
     cams = [bench_camera()]
     windows = visibility_windows(scene, cams, infinite=False, max_depth=fine_r.max_depth)
     sizes = {fine: check_resources(scene, windows, width=48, height=27, max_depth=fine_r.max_depth, fine=fine)
              for fine in (True, False)}
     assert sizes[False] < sizes[True]
-    coarse_r = Renderer(scene, frames=[0.0], width=48, height=27, max_memory=(sizes[False] + sizes[True]) // 2)
+    coarse_r = Renderer(scene, frames=[0.0], width=48, height=27, max_memory=(sizes[False] + sizes[True]) // 2,
+                        primitive="prism")
     assert not coarse_r.fine_segments
     assert coarse_r.stats.tetrahedra < fine_r.stats.tetrahedra
     a, b = fine_r.render(0.0), coarse_r.render(0.0)
@@ -521,4 +535,4 @@ def test_time_segments_fall_back_to_the_coarser_rule_when_memory_is_short():
     hit = a.object_id > 0
     np.testing.assert_allclose(a.depth[hit], b.depth[hit], rtol=1e-5)  # float32 rounding of two extrusions
     with pytest.raises(SceneError, match="memory limit"):
-        Renderer(scene, frames=[0.0], width=48, height=27, max_memory=sizes[False] // 2)
+        Renderer(scene, frames=[0.0], width=48, height=27, max_memory=sizes[False] // 2, primitive="prism")

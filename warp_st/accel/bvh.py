@@ -29,7 +29,9 @@ SAH_MAX_LEAF = 4
 #: prism costs from 0.5 to 3 left the visits per ray of the parade and aberration
 #: static copies unchanged).
 SAH_COST_TRAVERSE = 1.0
-SAH_COST_INTERSECT = {"tet": 2.0, "prism": 1.0}
+#: A rigid body's motion segment costs a bottom-level query: a transform and a 3D BVH
+#: descent of a few node visits even when it misses (the top level, accel/instances.py).
+SAH_COST_INTERSECT = {"tet": 2.0, "prism": 1.0, "rigid": 8.0}
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,15 +61,20 @@ class FlatBVH:
         return int(self.node_lo.nbytes // 2 + self.node_hi.nbytes // 2 + self.node_first.nbytes + self.node_count.nbytes)
 
 
-def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet") -> FlatBVH:
+def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", *, leaf_size: int = LEAF_SIZE
+              ) -> FlatBVH:
     """Build the BVH over primitive boxes ``prim_lo``/``prim_hi`` of shape (N, 4);
-    ``primitive`` picks the SAH intersection cost."""
+    ``primitive`` picks the SAH intersection cost; ranges of ``leaf_size`` primitives or
+    fewer always become leaves (larger ones when the SAH says so)."""
     start_clock = time.perf_counter()
     n = len(prim_lo)
     if n == 0:
-        z = np.zeros((1, 4))
-        return FlatBVH(z, z - 1.0, np.zeros(1, np.int32), np.zeros(1, np.int32), np.zeros(0, np.int64), 0, 0.0)
-    first, count, levels, order, depth = _sah_topology(prim_lo, prim_hi, SAH_COST_INTERSECT[primitive])
+        # No primitives: one leaf whose box lies at t = +inf, which no null ray on a
+        # past (or infinite-c) lightcone enters (the kernels test the root's box before
+        # anything else; bvh_wide.collapse gives one empty wide node).
+        far = np.array([[np.inf, 0.0, 0.0, 0.0]])
+        return FlatBVH(far, far.copy(), np.zeros(1, np.int32), np.zeros(1, np.int32), np.zeros(0, np.int64), 0, 0.0)
+    first, count, levels, order, depth = _sah_topology(prim_lo, prim_hi, SAH_COST_INTERSECT[primitive], leaf_size)
     lo, hi = _bounds(prim_lo, prim_hi, first, count, levels, order)
     return FlatBVH(
         node_lo=lo,
@@ -80,11 +87,11 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet") 
     )
 
 
-def _sah_topology(prim_lo, prim_hi, cost_intersect: float):
+def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int):
     """Node ranges by binned SAH, one Warp launch per tree level."""
     import warp as wp
 
-    kernel = _sah_kernel(cost_intersect)
+    kernel = _sah_kernel(cost_intersect, leaf_size)
     n = len(prim_lo)
     plo = wp.array(prim_lo.astype(np.float32), dtype=wp.vec4, device="cpu")
     phi = wp.array(prim_hi.astype(np.float32), dtype=wp.vec4, device="cpu")
@@ -145,13 +152,14 @@ def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, for
     return mids.numpy().astype(np.int64)
 
 
-def _sah_kernel(cost_intersect: float):
-    """The split kernel for one intersection cost, built once per process."""
+def _sah_kernel(cost_intersect: float, leaf_size: int):
+    """The split kernel for one intersection cost and leaf size, built once per process."""
     from warp_st.kernels.bvh_build import make_sah_split
 
-    if cost_intersect not in _SAH_KERNELS:
-        _SAH_KERNELS[cost_intersect] = make_sah_split(LEAF_SIZE, SAH_MAX_LEAF, SAH_COST_TRAVERSE, cost_intersect)
-    return _SAH_KERNELS[cost_intersect]
+    key = (cost_intersect, leaf_size)
+    if key not in _SAH_KERNELS:
+        _SAH_KERNELS[key] = make_sah_split(leaf_size, SAH_MAX_LEAF, SAH_COST_TRAVERSE, cost_intersect)
+    return _SAH_KERNELS[key]
 
 
 def _bounds(prim_lo, prim_hi, first, count, levels, order):

@@ -4,7 +4,7 @@ import warp as wp
 __all__ = ["make_probe"]
 
 
-def make_probe(scalar, vec3, vec4, Geometry, trace, hit_prim, ray_basis, to_d):
+def make_probe(scalar, vec3, vec4, Geometry, trace, prepare, leaf):
     FAR = 1.0e30
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -33,20 +33,13 @@ def make_probe(scalar, vec3, vec4, Geometry, trace, hit_prim, ray_basis, to_d):
         out_prim: wp.array(dtype=wp.int32),
         out_s: wp.array(dtype=scalar),
     ):
+        """The leaf test over every primitive at once: no BVH node is visited."""
         i = wp.tid()
         o = origins[i]
         n = dirs[i]
-        u, w = ray_basis(n)
-        nd = to_d(n)
-        ud = to_d(u)
-        wd = to_d(w)
-        best = scalar(FAR)
-        best_prim = int(-1)
-        for ti in range(prim_count):
-            h, s, _lam = hit_prim(geo, ti, o, nd, ud, wd, finite, scalar(0.0), best)
-            if h:
-                best = s
-                best_prim = ti
+        ray = prepare(geo, o, n, finite)
+        best, best_prim, _lam = leaf(geo, ray, 0, prim_count, o, n, finite, scalar(0.0), scalar(FAR), int(-1),
+                                     vec4(scalar(0.0)), -1, -1, scalar(0.0), 0)
         out_prim[i] = best_prim
         out_s[i] = best
 

@@ -12,8 +12,14 @@ from warp_st.kernels.probe import make_probe
 from warp_st.kernels.shade import make_shade
 from warp_st.kernels.spectrum import make_spectrum
 from warp_st.kernels.trace import make_trace
+from warp_st.kernels.trace_rigid import make_trace_rigid
 
-__all__ = ["get_kernels", "Kernels"]
+__all__ = ["get_kernels", "Kernels", "PRIMITIVES"]
+
+
+#: What the geometry of a database holds: prisms, tetrahedra (the 4D extrusion,
+#: ``trace.py``) or rigid bodies as instances (two levels, ``trace_rigid.py``, float32).
+PRIMITIVES = ("rigid", "prism", "tet")
 
 
 class Kernels:
@@ -26,10 +32,13 @@ class Kernels:
         self.vec4 = wp.types.vector(4, scalar)
         self.vec16 = wp.types.vector(16, scalar)  # box corners of a wide node's four children
         self.mat33 = wp.types.matrix((3, 3), scalar)
-        Geometry, trace, hit_prim, basis, to_d = make_trace(scalar, primitive)
+        if primitive == "rigid":
+            Geometry, trace, prepare, leaf = make_trace_rigid(scalar)
+        else:
+            Geometry, trace, prepare, leaf = make_trace(scalar, primitive)
         self.Geometry = Geometry
         self.Shading, self.Camera, self.Film, self.render_pixels = _make_render(scalar, self, trace, Geometry)
-        self._probe_parts = (scalar, self.vec3, self.vec4, Geometry, trace, hit_prim, basis, to_d)
+        self._probe_parts = (scalar, self.vec3, self.vec4, Geometry, trace, prepare, leaf)
         self._probe = None
 
     @property
@@ -39,7 +48,8 @@ class Kernels:
 
     @property
     def brute_rays(self):
-        """Kernel: closest hit of arbitrary null rays over every primitive, no BVH (the oracle)."""
+        """Kernel: closest hit of arbitrary null rays over every primitive (prism,
+        tetrahedron or motion segment), no BVH (the oracle of the traversal)."""
         return self._probes()[1]
 
     def _probes(self):
@@ -262,24 +272,48 @@ def _make_render(scalar, k, trace, Geometry):
         pixel = wp.tid() + offset
         px = pixel % cam.width
         py = pixel / cam.width
-        # The AOV ray: pixel centre at the frame's camera time (also the beauty when
-        # there is one sample).
+        # Ray 0 is the AOV ray: the pixel centre at the frame's camera time (also the
+        # beauty when there is one sample); rays 1..samples are the jittered samples.
+        # One call site of trace_path, so the compiler inlines it (with a second one it
+        # became an out-of-line call copying the Geometry and Shading structs per ray).
         n = camera_direction(cam, scalar(px) + scalar(0.5), scalar(py) + scalar(0.5))
-        origin = vec4(scalar(0.0))
-        color, alpha, prim, s, lam, src_t, src_b, visits, overflow = trace_path(geo, shd, cam, origin, n)
+        rays = int(1)
         if cam.samples > 1:
-            color = vec3(scalar(0.0))
-            alpha = scalar(0.0)
-            for k in range(cam.samples):
-                so, sn = sample_ray(cam, px, py, k, pixel)
-                c, a, _t, _s, _l, _st, _sb, sample_visits, sample_ovf = trace_path(geo, shd, cam, so, sn)
-                color = color + c
-                alpha = alpha + a
-                visits += sample_visits
-                overflow = wp.max(overflow, sample_ovf)
+            rays = 1 + cam.samples
+        color = vec3(scalar(0.0))
+        alpha = scalar(0.0)
+        prim = int(-1)
+        s = scalar(0.0)
+        lam = vec4(scalar(0.0))
+        src_t = scalar(0.0)
+        src_b = int(0)
+        visits = int(0)
+        overflow = int(0)
+        sum_color = vec3(scalar(0.0))
+        sum_alpha = scalar(0.0)
+        for k in range(rays):
+            ray_o = vec4(scalar(0.0))
+            ray_n = n
+            if k > 0:
+                ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
+            c, a, p_k, s_k, lam_k, st_k, sb_k, ray_visits, ray_ovf = trace_path(geo, shd, cam, ray_o, ray_n)
+            visits += ray_visits
+            overflow = wp.max(overflow, ray_ovf)
+            if k == 0:
+                color = c
+                alpha = a
+                prim = p_k
+                s = s_k
+                lam = lam_k
+                src_t = st_k
+                src_b = sb_k
+            else:
+                sum_color = sum_color + c
+                sum_alpha = sum_alpha + a
+        if cam.samples > 1:
             inv = scalar(1.0) / scalar(cam.samples)
-            color = color * inv
-            alpha = alpha * inv
+            color = sum_color * inv
+            alpha = sum_alpha * inv
         film.visits[pixel] = visits
         if overflow != 0:
             film.overflow[0] = 1
@@ -333,8 +367,9 @@ def _make_render(scalar, k, trace, Geometry):
 
 @functools.lru_cache(maxsize=None)
 def get_kernels(precision: str, primitive: str = "prism") -> Kernels:
-    """Kernels for ``"float32"``/``"float64"`` and ``"prism"``/``"tet"``, built once per process."""
+    """Kernels for ``"float32"``/``"float64"`` and a primitive of PRIMITIVES (``"rigid"``
+    in float32 only), built once per process."""
     scalar = {"float32": wp.float32, "float64": wp.float64}[precision]
-    if primitive not in ("prism", "tet"):
-        raise ValueError(f"primitive must be prism or tet, got {primitive!r}")
+    if primitive not in PRIMITIVES:
+        raise ValueError(f"primitive must be one of {', '.join(PRIMITIVES)}, got {primitive!r}")
     return Kernels(scalar, primitive)

@@ -31,36 +31,22 @@ The test projects along D (pbrt's permute-and-shear) and evaluates each edge fun
 over the sorted global vertex indices with a rounding tolerance that depends on the
 edge only, so neighbouring prisms agree on every shared edge (watertight).
 
-Traversal: the 4-wide form of the 4D BVH (bvh_wide.py), nearest child first with a
-fixed stack. A visit tests its four child boxes as one 16-lane slab test and carries
-the children's packed links, loaded beside their boxes. Rays that miss the whole
-database's box return before any other set-up.
+Traversal: the 4-wide form of the 4D BVH (bvh_wide.py, ``traverse.py``); a leaf holds
+a range of prisms or tetrahedra.
 """
 
 import warp as wp
 
-from warp_st.kernels.layout import LINK_MASK, LINK_SHIFT, MAX_WIDE_DEPTH
+from warp_st.kernels.traverse import STACK_SIZE, make_traverse
 
 __all__ = ["make_trace", "STACK_SIZE"]
-
-#: Traversal stack entries: a visit pushes at most three children, so three per level
-#: of the wide tree (bvh_wide.MAX_WIDE_DEPTH) bound it. Zero-initialised per ray, so
-#: no larger than needed.
-STACK_SIZE = 3 * MAX_WIDE_DEPTH
 
 
 def make_trace(scalar, primitive: str = "prism"):
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
     vec16 = wp.types.vector(16, scalar)
-    stack_i = wp.types.vector(STACK_SIZE, wp.int32)
-    stack_s = wp.types.vector(STACK_SIZE, scalar)
-    BIG = 1.0e30
-    INF = float("inf")
-    # pbrt's gamma(3)-style widening of the slab interval against rounding.
     dvec3 = wp.types.vector(3, wp.float64)
-    EPS = 6.0e-8 if wp.types.type_size_in_bytes(scalar) == 4 else 1.12e-16
-    SLAB_GROW = 1.0 + 32.0 * EPS
     # The tetrahedron test always computes in float64 (from float32 or float64
     # storage): its rounding bound then stays ~1e-15 relative, far inside the
     # outward padding of the node boxes, at the same scalar-CPU cost.
@@ -321,216 +307,89 @@ def make_trace(scalar, primitive: str = "prism"):
         org = comoving_origin(g, pi, o, permute(origin_x(o), kz), kz)
         return hit_prism_in(g, pi, o, org, kz, S, finite, s_min, s_max)
 
-    # min/max as single compare-selects (x86 minss/maxss). wp.min/wp.max guard NaN
-    # arguments with a second compare each, which doubled the slab test's cost; the
-    # slab values here are never NaN (safe_inv keeps 1/d finite and non-zero, box
-    # corners are finite or t = +inf).
-    @wp.func
-    def fmin(a: scalar, b: scalar) -> scalar:
-        return wp.where(a < b, a, b)
+    @wp.struct
+    class Ray:
+        """What the leaf tests need per ray: its orthonormal basis in float64 and the
+        prism projection of bodies at rest (D = n; every body with infinite c)."""
+
+        nd: dvec3
+        ud: dvec3
+        wd: dvec3
+        fin: wp.float64  # 1 for finite light speed (D = n + v), 0 for infinite (D = n)
+        rest_kz: int
+        rest_S: dvec3
+        rest_org: dvec3
 
     @wp.func
-    def fmax(a: scalar, b: scalar) -> scalar:
-        return wp.where(a > b, a, b)
-
-    @wp.func
-    def box_quad(g: Geometry, node: int, o16: vec16, inv16: vec16, s_min: scalar, s_max: scalar):
-        """Slab tests of wide node ``node``'s four child boxes at once: (entries, exits).
-        Child k is hit when entries[k] <= exits[k]. The t slab is t = t_c - s.
-
-        All sixteen slabs as vector ops (the compiler packs them into SIMD lanes), the
-        reductions over the four axes as trees. The far exit widens once at the end,
-        as pbrt's does per slab (the scale is positive, so min and scale commute; a
-        negative exit misses either way)."""
-        a = wp.cw_mul(g.node_lo[node] - o16, inv16)
-        b = wp.cw_mul(g.node_hi[node] - o16, inv16)
-        n = vec16()
-        f = vec16()
-        for k in range(16):
-            n[k] = fmin(a[k], b[k])
-            f[k] = fmax(a[k], b[k])
-        near = vec4()
-        far = vec4()
-        for k in range(4):
-            near[k] = fmax(fmax(fmax(n[k], n[4 + k]), fmax(n[8 + k], n[12 + k])), s_min)
-            far[k] = fmin(fmin(fmin(f[k], f[4 + k]), fmin(f[8 + k], f[12 + k])) * scalar(SLAB_GROW), s_max)
-        return near, far
-
-    @wp.func
-    def order2(e: vec4, l: wp.vec4i, i: int, j: int):
-        """Compare-exchange of entries i < j (with their links) into ascending order."""
-        if e[j] < e[i]:
-            t = e[i]
-            e[i] = e[j]
-            e[j] = t
-            m = l[i]
-            l[i] = l[j]
-            l[j] = m
-        return e, l
-
-    @wp.func
-    def safe_inv(x: scalar) -> scalar:
-        if wp.abs(x) < scalar(1.0e-30):
-            if x < scalar(0.0):
-                return -scalar(BIG)
-            return scalar(BIG)
-        return scalar(1.0) / x
+    def prepare(g: Geometry, o: vec4, n: vec3, finite: int) -> Ray:
+        r = Ray()
+        u, w = ray_basis(n)
+        r.nd = to_d(n)
+        r.ud = to_d(u)
+        r.wd = to_d(w)
+        r.fin = wp.float64(0.0)
+        if finite != 0:
+            r.fin = wp.float64(1.0)
+        _rest_ok, rest_kz, rest_S = prism_frame(r.nd, dvec3(wp.float64(0.0)), wp.float64(0.0))
+        r.rest_kz = rest_kz
+        r.rest_S = rest_S
+        r.rest_org = permute(origin_x(o), rest_kz)
+        return r
 
     hit = hit_prism if primitive == "prism" else hit_tet
 
     @wp.func
-    def trace(
-        g: Geometry,
-        o: vec4,
-        n: vec3,
-        finite: int,
-        s_min: scalar,
-        s_max: scalar,
-        skip_tri: int,
-        skip_body: int,
-        skip_dist: scalar,
-        any_hit: int,
-    ):
-        """Closest (or, with any_hit, any) hit with lookback in (s_min, s_max).
-
-        Hits on triangle ``skip_tri``, and on body ``skip_body`` nearer than
-        ``skip_dist``, are ignored (secondary rays leaving a tessellated surface).
-
-        Returns (primitive index or -1, s, barycentrics, nodes visited, stack overflowed).
-        Near child first with a fixed stack; an overflow is reported, never silent.
-        """
-        # 1 / dt: dt = -1 on the past lightcone, 0 with infinite light speed.
-        inv_t = scalar(BIG)
-        if finite != 0:
-            inv_t = scalar(-1.0)
-        inv = vec4(inv_t, safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
-        # The scene's box first: rays that miss it (sky) return before any other set-up.
-        ra = wp.cw_mul(g.root_lo - o, inv)
-        rb = wp.cw_mul(g.root_hi - o, inv)
-        r_near = s_min
-        r_far = s_max
-        for k in range(4):
-            r_near = fmax(r_near, fmin(ra[k], rb[k]))
-            r_far = fmin(r_far, fmax(ra[k], rb[k]) * scalar(SLAB_GROW))
-        if r_near > r_far:
-            return int(-1), s_max, vec4(scalar(0.0)), int(0), int(0)
-        o16 = vec16()
-        inv16 = vec16()
-        for k in range(16):
-            o16[k] = o[k // 4]
-            inv16[k] = inv[k // 4]
-        u, w = ray_basis(n)
-        nd = to_d(n)
-        ud = to_d(u)
-        wd = to_d(w)
-        # The prism projection of bodies at rest (D = n; every body with infinite c),
-        # computed once per ray instead of once per prism test.
+    def leaf(g: Geometry, ray: Ray, first: int, count: int, o: vec4, n: vec3, finite: int, s_min: scalar,
+             best: scalar, best_prim: int, best_lam: vec4, skip_tri: int, skip_body: int, skip_dist: scalar,
+             any_hit: int):
+        """The closest hit so far, updated by the leaf's prisms or tetrahedra."""
         zero = wp.float64(0.0)
-        fin = wp.float64(0.0)
-        if finite != 0:
-            fin = wp.float64(1.0)
-        _rest_ok, rest_kz, rest_S = prism_frame(nd, dvec3(zero), zero)
-        rest_org = permute(origin_x(o), rest_kz)
-        best = s_max
-        best_tet = int(-1)
-        best_lam = vec4(scalar(0.0))
-        visits = int(0)
-        overflow = int(0)
-        st_node = stack_i()
-        st_s = stack_s()
-        sp = int(0)
-        # The traversal carries packed links (first << LINK_SHIFT | count), not node
-        # indices: children's links are loaded beside their boxes, so a visit needs
-        # no dependent load before its children's boxes.
-        cur = int(0)  # wide node 0, the root
-        while cur >= 0:
-            visits += 1
-            first = cur >> LINK_SHIFT
-            count = cur & LINK_MASK
-            next_link = int(-1)
-            if count > 0:
-                # The projection for the leaf's first prism's velocity, shared by the
-                # leaf's prisms of the same velocity (leaves hold one body's prisms
-                # but for a few at body boundaries).
-                leaf_v = dvec3(zero)
-                leaf_ok = bool(False)
-                leaf_kz = int(0)
-                leaf_S = dvec3(zero)
-                leaf_org = dvec3(zero)
+        # The projection for the leaf's first prism's velocity, shared by the leaf's
+        # prisms of the same velocity (leaves hold one body's prisms but for a few at
+        # body boundaries).
+        leaf_v = dvec3(zero)
+        leaf_ok = bool(False)
+        leaf_kz = int(0)
+        leaf_S = dvec3(zero)
+        leaf_org = dvec3(zero)
+        if wp.static(primitive == "prism"):
+            leaf_v = prism_v(g, first)
+            if finite != 0 and (leaf_v[0] != zero or leaf_v[1] != zero or leaf_v[2] != zero):
+                leaf_ok, leaf_kz, leaf_S = prism_frame(ray.nd, leaf_v, ray.fin)
+                leaf_org = permute(origin_x(o), leaf_kz)
+        for k in range(count):
+            ti = first + k
+            tri = int(-2)
+            if skip_tri >= 0 or skip_body >= 0:
+                tri = g.prim_tri[ti]
+            if tri != skip_tri:
+                h = bool(False)
+                s = scalar(0.0)
+                lam = vec4(scalar(0.0))
                 if wp.static(primitive == "prism"):
-                    leaf_v = prism_v(g, first)
-                    if finite != 0 and (leaf_v[0] != zero or leaf_v[1] != zero or leaf_v[2] != zero):
-                        leaf_ok, leaf_kz, leaf_S = prism_frame(nd, leaf_v, fin)
-                        leaf_org = permute(origin_x(o), leaf_kz)
-                for k in range(count):
-                    ti = first + k
-                    tri = int(-2)
-                    if skip_tri >= 0 or skip_body >= 0:
-                        tri = g.prim_tri[ti]
-                    if tri != skip_tri:
-                        h = bool(False)
-                        s = scalar(0.0)
-                        lam = vec4(scalar(0.0))
-                        if wp.static(primitive == "prism"):
-                            v = prism_v(g, ti)
-                            if v[0] == zero and v[1] == zero and v[2] == zero:
-                                h, s, lam = hit_prism_in(g, ti, o, rest_org, rest_kz, rest_S, finite, s_min, best)
-                            elif finite == 0:
-                                org = comoving_origin(g, ti, o, rest_org, rest_kz)
-                                h, s, lam = hit_prism_in(g, ti, o, org, rest_kz, rest_S, finite, s_min, best)
-                            elif v[0] == leaf_v[0] and v[1] == leaf_v[1] and v[2] == leaf_v[2]:
-                                if leaf_ok:
-                                    org = comoving_origin(g, ti, o, leaf_org, leaf_kz)
-                                    h, s, lam = hit_prism_in(g, ti, o, org, leaf_kz, leaf_S, finite, s_min, best)
-                            else:
-                                h, s, lam = hit_prism(g, ti, o, nd, ud, wd, finite, s_min, best)
-                        else:
-                            h, s, lam = hit(g, ti, o, nd, ud, wd, finite, s_min, best)
-                        if h and skip_body >= 0 and s < skip_dist:
-                            # (Warp may evaluate both sides of `or`: no index with tri = -2.)
-                            if g.tri_body[tri] == skip_body:
-                                h = False
-                        if h:
-                            best = s
-                            best_tet = ti
-                            best_lam = lam
-                if any_hit != 0 and best_tet >= 0:
-                    break
-            else:
-                near, far = box_quad(g, first, o16, inv16, s_min, best)
-                links = g.node_link[first]
-                # Children missed get entry +inf; sort the four by entry (a 5-exchange
-                # network), go to the nearest hit, push the other hits farthest first.
-                e = vec4()
-                hits = int(0)
-                for k in range(4):
-                    if near[k] <= far[k]:
-                        e[k] = near[k]
-                        hits += 1
+                    v = prism_v(g, ti)
+                    if v[0] == zero and v[1] == zero and v[2] == zero:
+                        h, s, lam = hit_prism_in(g, ti, o, ray.rest_org, ray.rest_kz, ray.rest_S, finite, s_min, best)
+                    elif finite == 0:
+                        org = comoving_origin(g, ti, o, ray.rest_org, ray.rest_kz)
+                        h, s, lam = hit_prism_in(g, ti, o, org, ray.rest_kz, ray.rest_S, finite, s_min, best)
+                    elif v[0] == leaf_v[0] and v[1] == leaf_v[1] and v[2] == leaf_v[2]:
+                        if leaf_ok:
+                            org = comoving_origin(g, ti, o, leaf_org, leaf_kz)
+                            h, s, lam = hit_prism_in(g, ti, o, org, leaf_kz, leaf_S, finite, s_min, best)
                     else:
-                        e[k] = scalar(INF)
-                e, links = order2(e, links, 0, 1)
-                e, links = order2(e, links, 2, 3)
-                e, links = order2(e, links, 0, 2)
-                e, links = order2(e, links, 1, 3)
-                e, links = order2(e, links, 1, 2)
-                if hits > 0:
-                    next_link = links[0]
-                    if sp + hits - 1 <= STACK_SIZE:
-                        for k in range(3):
-                            j = 3 - k
-                            if j < hits:
-                                st_node[sp] = links[j]
-                                st_s[sp] = e[j]
-                                sp += 1
-                    else:
-                        overflow = 1
-            # Pop until a node whose entry is still nearer than the best hit.
-            while next_link < 0 and sp > 0:
-                sp -= 1
-                if st_s[sp] <= best:
-                    next_link = st_node[sp]
-            cur = next_link
-        return best_tet, best, best_lam, visits, overflow
+                        h, s, lam = hit_prism(g, ti, o, ray.nd, ray.ud, ray.wd, finite, s_min, best)
+                else:
+                    h, s, lam = hit(g, ti, o, ray.nd, ray.ud, ray.wd, finite, s_min, best)
+                if h and skip_body >= 0 and s < skip_dist:
+                    # (Warp may evaluate both sides of `or`: no index with tri = -2.)
+                    if g.tri_body[tri] == skip_body:
+                        h = False
+                if h:
+                    best = s
+                    best_prim = ti
+                    best_lam = lam
+        return best, best_prim, best_lam
 
-    return Geometry, trace, hit, ray_basis, to_d
+    trace = make_traverse(scalar, Geometry, prepare, leaf)
+    return Geometry, trace, prepare, leaf

@@ -24,7 +24,10 @@ __all__ = [
     "BYTES_PER_VERTEX",
     "BYTES_PER_PIXEL",
     "MemoryRefusal",
+    "BYTES_PER_RIGID_TRIANGLE",
+    "BYTES_PER_RIGID_VERTEX",
     "estimate_bytes",
+    "estimate_rigid_bytes",
     "count_database",
     "check_limits",
     "check_resources",
@@ -48,6 +51,15 @@ BYTES_PER_TET = int(
 BYTES_PER_VERTEX = 4 * 8 + 4 * 4 + 3 * 8 + 3 * 4
 #: The film (rgba + 5 scalars + 3 int32 on the device) and the Image (rgba f32, two f64 times, 5 x 4 bytes).
 BYTES_PER_PIXEL = (4 * 4 + 5 * 4 + 3 * 4) + (4 * 4 + 2 * 8 + 5 * 4)
+#: Per triangle of the rigid (two-level) database, which neither speed, lifetime nor
+#: frame span changes: the host tables (vertex indices int32 x 3, normal float64 x 3,
+#: size float64, smooth / body / material int32, the shape's indices int32 x 3), the
+#: device tables (vertex indices int32 x 4, triangle int32, normal float32 x 3, size,
+#: smooth, body, material) and the bottom level (wp.Mesh indices int32 x 3, at most two
+#: 32-byte BVH nodes and a permutation entry).
+BYTES_PER_RIGID_TRIANGLE = (12 + 24 + 8 + 12 + 12) + (16 + 4 + 12 + 16) + (12 + 64 + 4)
+#: Per vertex: rest point and normal (float64, host), mesh point and normal (float32, device).
+BYTES_PER_RIGID_VERTEX = 24 + 24 + 12 + 12
 
 
 def estimate_bytes(tetrahedra: int, vertices: int, pixels: int = 0) -> int:
@@ -64,6 +76,12 @@ def estimate_bytes(tetrahedra: int, vertices: int, pixels: int = 0) -> int:
     return int(tetrahedra * BYTES_PER_TET + vertices * BYTES_PER_VERTEX + pixels * BYTES_PER_PIXEL)
 
 
+def estimate_rigid_bytes(triangles: int, vertices: int, pixels: int = 0) -> int:
+    """Peak bytes of a rigid database of ``triangles`` / ``vertices`` and a frame of
+    ``pixels`` (the motion segments, a few per body, are left out)."""
+    return int(triangles * BYTES_PER_RIGID_TRIANGLE + vertices * BYTES_PER_RIGID_VERTEX + pixels * BYTES_PER_PIXEL)
+
+
 class MemoryRefusal(SceneError):
     """A render whose estimated memory exceeds the limit (bad input: exit 2)."""
 
@@ -75,16 +93,12 @@ def count_database(scene: Scene, windows, *, fine: bool = True) -> tuple[int, in
     non-degenerate triangle per segment, one vertex per point per slice), without
     building it. A window that is not finite raises SceneError naming the body.
     """
+    _check_finite(scene, windows)
     tets, verts, per_body = 0, 0, []
     for body, window in zip(scene.bodies, windows):
         n_body = 0
         parts = intervals(window)
         if parts and body.surfaces:
-            if not all(math.isfinite(t) for part in parts for t in part):
-                raise SceneError.at(
-                    scene.source, body.prim_path, None,
-                    f"its visible time window {_window_text(window)} is not finite (positions, speeds or times too large)",
-                )
             segments = sum(len(body_slices(body, part, fine=fine)) - 1 for part in parts)
             for surf in body.surfaces:
                 n_tri = len(surface_triangles(surf))
@@ -94,6 +108,17 @@ def count_database(scene: Scene, windows, *, fine: bool = True) -> tuple[int, in
         per_body.append(n_body)
         tets += n_body
     return tets, verts, per_body
+
+
+def _check_finite(scene: Scene, windows) -> None:
+    """SceneError naming the first body with triangles whose visible window is not finite."""
+    for body, window in zip(scene.bodies, windows):
+        parts = intervals(window)
+        if parts and body.surfaces and not all(math.isfinite(t) for part in parts for t in part):
+            raise SceneError.at(
+                scene.source, body.prim_path, None,
+                f"its visible time window {_window_text(window)} is not finite (positions, speeds or times too large)",
+            )
 
 
 def _window_text(window) -> str:
@@ -138,24 +163,32 @@ def check_limits(scene: Scene, windows, *, width: int, height: int, samples: int
 
 
 def check_resources(scene: Scene, windows, *, width: int, height: int, samples: int = 1, max_depth: int = 0,
-                    max_memory: int | None = None, fine: bool = True) -> int:
+                    max_memory: int | None = None, fine: bool = True, rigid: bool = False) -> int:
     """Refuse (SceneError; MemoryRefusal over ``max_memory``) a render that would exceed
     ``max_memory`` or the kernels' ranges. ``fine``: the time-segment rule
-    (``extrude.body_slices``). Called after the visibility windows and before the
-    extrusion. Returns the estimate.
+    (``extrude.body_slices``); ``rigid``: the two-level database instead of the
+    extrusion (its size is the scene's triangles, whatever the windows). Called after
+    the visibility windows and before the build. Returns the estimate.
     """
     check_limits(scene, windows, width=width, height=height, samples=samples, max_depth=max_depth)
     pixels = int(width) * int(height)
-    tets, verts, per_body = count_database(scene, windows, fine=fine)
-    estimate = estimate_bytes(tets, verts, pixels)
+    if rigid:
+        _check_finite(scene, windows)
+        tris = [sum(len(surface_triangles(s)) for s in b.surfaces) for b in scene.bodies]
+        verts = sum(len(s.points) for b in scene.bodies for s in b.surfaces if len(surface_triangles(s)))
+        estimate, what, per_body = estimate_rigid_bytes(sum(tris), verts, pixels), f"{sum(tris):,} triangles", tris
+        unit = "triangles"
+    else:
+        tets, verts, per_body = count_database(scene, windows, fine=fine)
+        estimate, what, unit = estimate_bytes(tets, verts, pixels), f"{tets:,} tetrahedra", "tetrahedra"
     if max_memory is not None and estimate > max_memory:
         biggest = ""
         if per_body and max(per_body) > 0:
             i = int(np.argmax(per_body))
-            biggest = f"; the largest body is {scene.bodies[i].prim_path} with {per_body[i]:,} tetrahedra"
+            biggest = f"; the largest body is {scene.bodies[i].prim_path} with {per_body[i]:,} {unit}"
         raise MemoryRefusal.at(
             scene.source, None, None,
-            f"the render needs about {format_size(estimate)} ({tets:,} tetrahedra, {verts:,} vertices, "
+            f"the render needs about {format_size(estimate)} ({what}, {verts:,} vertices, "
             f"{pixels:,} pixels), more than the memory limit of {format_size(max_memory)}{biggest}; "
             "raise --max-memory (max_memory=) or shorten the frame range, lifetimes or speeds",
         )

@@ -11,7 +11,8 @@ Keys. Everything a build depends on is either in the key or checked on reuse:
   new object and never sees another scene's entries;
 - the sphere tessellation chosen for the frames, resolution, lens, light-speed modes and
   bounce limit (``spacetime.adaptive.sphere_tessellation``): its {prim: segments} map;
-- the primitive kind ("prism" / "tet") and the time-segment rule (fine / coarse);
+- the primitive kind ("rigid" / "prism" / "tet") and the time-segment rule (fine /
+  coarse) of the extrusion;
 - the visible windows (which the frames, shutter, light-speed modes and bounce limit
   determine): a database is reused only when its windows cover every body's new window,
   so it holds all the geometry the new frames can see; a wider window adds only exact
@@ -25,12 +26,19 @@ Lifetime: entries live as long as the Scene object (a ``weakref.WeakKeyDictionar
 keyed by it): dropping the last reference to a scene frees them. ``clear(scene)`` (or
 ``clear()`` for every scene) frees them earlier.
 
-Memory: per scene at most MAX_DATABASES databases and MAX_TESSELLATIONS re-tessellated
-scenes and MAX_WINDOWS window lists (a few floats per body each), least recently used
-dropped first. A database costs about what one render of it
-holds (``budget.estimate_bytes``: ~465 bytes per tetrahedron and ~84 per vertex on the
-host and the device) plus its last MAX_GEOMETRIES recentred geometries (float32
-positions of every vertex and primitive event, and the node boxes, per camera event).
+Rigid bodies (the default path): the shapes and their bottom levels (one ``wp.Mesh`` per
+distinct shape) depend on the tessellation only and are cached apart from the top
+level, which the windows decide; a database for other frames rebuilds only the top
+level (O(bodies)).
+
+Memory: per scene at most MAX_DATABASES databases, MAX_TESSELLATIONS re-tessellated body
+sets and rigid shape sets, and MAX_WINDOWS window lists (a few floats per body each),
+least recently used dropped first. A database costs about what one render of it holds
+(``budget``: an extrusion ~465 bytes per tetrahedron and ~84 per vertex on the host and
+the device; a rigid database ~196 bytes per triangle and 72 per vertex, independent of
+speeds, lifetimes and frames) plus its last MAX_GEOMETRIES recentred geometries (an
+extrusion's: float32 copies of every vertex, primitive event and node box; a rigid
+one's: a few vectors per motion segment).
 docs/design/database-cache.md says the same for users.
 """
 from __future__ import annotations
@@ -62,8 +70,12 @@ _builds = 0
 
 @dataclass(eq=False)
 class Database:
-    """One built database: the extrusion and BVH over ``windows`` of a tessellated scene.
+    """One built database over ``windows`` of a tessellated scene: the extrusion
+    (``mesh``) and its BVH, or the rigid bodies' motion ``segments`` and the top level
+    (``bvh``) over the ``shapes`` and their ``bottom`` levels (shared by every database
+    of the tessellation: ``SceneCache.shapes``).
 
+    ``nbytes``: its memory estimate without a frame's pixels (``rendering.budget``);
     ``stats``: how long its build took (``renderer._BuildStats``); ``static`` its uploaded
     arrays per precision, ``geometry`` its recentred geometries per (precision, camera
     event)."""
@@ -72,11 +84,13 @@ class Database:
     primitive: str
     fine: bool
     windows: list
-    mesh: object
     bvh: object
-    tetrahedra: int
-    vertices: int
+    nbytes: int
     stats: object
+    mesh: object = None
+    segments: object = None
+    shapes: object = None
+    bottom: object = None
     static: dict = field(default_factory=dict)
     geometry: OrderedDict = field(default_factory=OrderedDict)
 
@@ -91,6 +105,7 @@ class SceneCache:
     def __init__(self):
         self.tessellations: OrderedDict = OrderedDict()
         self._windows: OrderedDict = OrderedDict()
+        self._shapes: OrderedDict = OrderedDict()
         self.databases: list[Database] = []
 
     def windows(self, key, make):
@@ -103,6 +118,11 @@ class SceneCache:
         missing). Bodies, not a Scene: no entry may refer to the scene it is cached on,
         or the scene would never be freed."""
         return _lru(self.tessellations, key, make, MAX_TESSELLATIONS)
+
+    def shapes(self, tessellation, make):
+        """The rigid shapes and bottom levels of a tessellation (made by ``make()`` when
+        missing): built once per scene and tessellation, whatever the frames."""
+        return _lru(self._shapes, tessellation, make, MAX_TESSELLATIONS)
 
     def candidates(self, tessellation, primitive, windows) -> list[Database]:
         """Databases of this tessellation and primitive whose windows cover ``windows``,

@@ -19,17 +19,47 @@ from warp_st.kernels import Kernels
 from warp_st.kernels.spectrum import spectral_basis_inverse
 from warp_st.spacetime.extrude import SpacetimeMesh
 
-__all__ = ["StaticArrays", "make_geometry", "make_shading"]
+__all__ = ["ShadingTables", "StaticArrays", "make_geometry", "set_nodes", "outward", "make_shading"]
 
 _DEVICE = "cpu"
 
 
-class StaticArrays:
-    """Frame-independent device arrays of one database."""
+class ShadingTables:
+    """Frame-independent shading arrays: vertex normals, per-triangle tables, materials,
+    bodies. ``tables`` is a ``SpacetimeMesh`` or a ``RigidShapes`` (the same fields)."""
 
-    def __init__(self, k: Kernels, mesh: SpacetimeMesh, bvh: FlatBVH):
+    def __init__(self, k: Kernels, tables):
         np_scalar = np.float32 if k.scalar == wp.float32 else np.float64
         self.np_scalar = np_scalar
+        self.vert_normal = wp.array(tables.vertex_normals.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
+        self.tri_normal = wp.array(tables.tri_normal.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
+        self.tri_smooth = wp.array(tables.tri_smooth, dtype=wp.int32, device=_DEVICE)
+        self.tri_size = wp.array(tables.tri_size.astype(np_scalar), dtype=k.scalar, device=_DEVICE)
+        self.tri_body = wp.array(tables.tri_body, dtype=wp.int32, device=_DEVICE)
+        self.tri_material = wp.array(tables.tri_material, dtype=wp.int32, device=_DEVICE)
+        mats = tables.materials or ()
+        diffuse = np.array([m.diffuse for m in mats], dtype=np_scalar).reshape(-1, 3)
+        emissive = np.array([m.emissive for m in mats], dtype=np_scalar).reshape(-1, 3)
+        self.mat_diffuse = wp.array(diffuse, dtype=k.vec3, device=_DEVICE)
+        self.mat_emissive = wp.array(emissive, dtype=k.vec3, device=_DEVICE)
+        metallic = np.array([m.metallic for m in mats], dtype=np_scalar).reshape(-1)
+        self.mat_metallic = wp.array(metallic, dtype=k.scalar, device=_DEVICE)
+        bodies = tables.bodies
+        self.body_velocity = wp.array(
+            np.array([b.velocity for b in bodies], dtype=np_scalar).reshape(-1, 3), dtype=k.vec3, device=_DEVICE
+        )
+        self.body_gamma = wp.array(np.array([b.gamma for b in bodies], dtype=np_scalar), dtype=k.scalar, device=_DEVICE)
+        self.body_decoupled = wp.array(
+            np.array([1 if b.decoupled else 0 for b in bodies], dtype=np.int32), dtype=wp.int32, device=_DEVICE
+        )
+        self.body_events = np.array([[b.reference_time, *b.origin] for b in bodies], dtype=np.float64).reshape(-1, 4)
+
+
+class StaticArrays(ShadingTables):
+    """Frame-independent device arrays of one 4D database (prisms or tetrahedra)."""
+
+    def __init__(self, k: Kernels, mesh: SpacetimeMesh, bvh: FlatBVH):
+        super().__init__(k, mesh)
         if mesh.primitive == "prism":
             # The shading reads four vertex indices with barycentrics (b0, b1, b2, 0).
             vidx, tri = mesh.prisms[:, [0, 1, 2, 0]], mesh.prism_tri
@@ -42,31 +72,9 @@ class StaticArrays:
         # The kernel traces the 4-wide form of the BVH (bvh_wide.py).
         self.wide = collapse(bvh)
         self.node_link = wp.array(self.wide.link, dtype=wp.vec4i, device=_DEVICE)
-        self.vert_normal = wp.array(mesh.vertex_normals.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
-        self.tri_normal = wp.array(mesh.tri_normal.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
-        self.tri_smooth = wp.array(mesh.tri_smooth, dtype=wp.int32, device=_DEVICE)
-        self.tri_size = wp.array(mesh.tri_size.astype(np_scalar), dtype=k.scalar, device=_DEVICE)
-        self.tri_body = wp.array(mesh.tri_body, dtype=wp.int32, device=_DEVICE)
-        self.tri_material = wp.array(mesh.tri_material, dtype=wp.int32, device=_DEVICE)
-        mats = mesh.materials or ()
-        diffuse = np.array([m.diffuse for m in mats], dtype=np_scalar).reshape(-1, 3)
-        emissive = np.array([m.emissive for m in mats], dtype=np_scalar).reshape(-1, 3)
-        self.mat_diffuse = wp.array(diffuse, dtype=k.vec3, device=_DEVICE)
-        self.mat_emissive = wp.array(emissive, dtype=k.vec3, device=_DEVICE)
-        metallic = np.array([m.metallic for m in mats], dtype=np_scalar).reshape(-1)
-        self.mat_metallic = wp.array(metallic, dtype=k.scalar, device=_DEVICE)
-        bodies = mesh.bodies
-        self.body_velocity = wp.array(
-            np.array([b.velocity for b in bodies], dtype=np_scalar).reshape(-1, 3), dtype=k.vec3, device=_DEVICE
-        )
-        self.body_gamma = wp.array(np.array([b.gamma for b in bodies], dtype=np_scalar), dtype=k.scalar, device=_DEVICE)
-        self.body_decoupled = wp.array(
-            np.array([1 if b.decoupled else 0 for b in bodies], dtype=np.int32), dtype=wp.int32, device=_DEVICE
-        )
-        self.body_events = np.array([[b.reference_time, *b.origin] for b in bodies], dtype=np.float64).reshape(-1, 4)
 
 
-def _outward(values64: np.ndarray, np_scalar, direction: float) -> np.ndarray:
+def outward(values64: np.ndarray, np_scalar, direction: float) -> np.ndarray:
     """Round float64 values to ``np_scalar``, then BOX_PAD_ULPS ulps towards ``direction``.
 
     The pad also covers the kernel's per-face rounding tolerance at box corners.
@@ -99,14 +107,19 @@ def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: Fl
     g.prim_vidx = static.prim_vidx
     g.prim_tri = static.prim_tri
     g.tri_body = static.tri_body
-    node_lo, node_hi = _outward(bvh.node_lo - origin, ns, -np.inf), _outward(bvh.node_hi - origin, ns, np.inf)
+    set_nodes(k, g, static.wide, static.node_link, bvh, origin, ns)
+    return g
+
+
+def set_nodes(k: Kernels, g, wide, node_link, bvh: FlatBVH, origin: np.ndarray, ns) -> None:
+    """The BVH's node boxes on ``g``, recentred on ``origin`` and rounded outward."""
+    node_lo, node_hi = outward(bvh.node_lo - origin, ns, -np.inf), outward(bvh.node_hi - origin, ns, np.inf)
     g.root_lo = k.vec4(*node_lo[0].tolist())
     g.root_hi = k.vec4(*node_hi[0].tolist())
-    lo, hi = wide_boxes(static.wide, node_lo, node_hi)
+    lo, hi = wide_boxes(wide, node_lo, node_hi)
     g.node_lo = wp.array(lo, dtype=k.vec16, device=_DEVICE)
     g.node_hi = wp.array(hi, dtype=k.vec16, device=_DEVICE)
-    g.node_link = static.node_link
-    return g
+    g.node_link = node_link
 
 
 def make_shading(

@@ -26,15 +26,17 @@ from warp_st.core.native_output import captured_output
 from warp_st.core.scene import CameraState, Scene, SceneError
 from warp_st.output.film import Image, quantize_time
 from warp_st.rendering import database_cache
-from warp_st.rendering.budget import MemoryRefusal, check_limits, check_resources, estimate_bytes
+from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
 from warp_st.spacetime.visibility import union, visibility_windows
 
 __all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION", "PRIMITIVES"]
 
-#: Primitive kinds of the 4D database (see build_database).
-PRIMITIVES = ("prism", "tet")
+#: What the database holds: rigid bodies as instances (two levels, the default in
+#: float32), or their 4D extrusion into prisms or tetrahedra (build_database; the
+#: exact oracle and the float64 path).
+PRIMITIVES = ("rigid", "prism", "tet")
 
 #: Mirror reflections followed when nothing asks otherwise (issue: light transport).
 DEFAULT_MAX_DEPTH = 4
@@ -83,6 +85,8 @@ class RenderStats:
     last_kernel_seconds: float = 0.0
     last_mean_visits: float = 0.0
     rays: int = 0
+    triangles: int = 0  # rigid: the bottom levels' triangles
+    segments: int = 0  # rigid: the top level's motion segments
     database_built: bool = False  # False: the scene's cached database served (database_cache)
 
 
@@ -124,8 +128,11 @@ class Renderer:
     frames: the USD time codes that will be rendered (the database covers exactly
         what their past lightcones can reach); default: the stage's start frame or 0.
     Keyword options override the stage's render settings; None keeps them.
-    primitive: "prism" (default, one comoving triangle test per prism) or "tet" (three
-        tetrahedra per prism, the general path); both give the same images.
+    primitive: "rigid" (the default in float32: each body's shape at rest traced once
+        in its comoving coordinates, a 4D top level over its motion segments), "prism"
+        (the default in float64: one comoving triangle test per extruded prism) or
+        "tet" (three tetrahedra per prism, the general path); all give the same images
+        to float32 rounding.
     """
 
     def __init__(
@@ -145,12 +152,11 @@ class Renderer:
         light_speed: str | None = None,
         threads: int | None = None,
         max_memory: int | str | None = None,
-        primitive: str = "prism",
+        primitive: str | None = None,
     ):
         src = scene.source
-        if primitive not in PRIMITIVES:
+        if primitive is not None and primitive not in PRIMITIVES:
             raise SceneError.at(src, None, "primitive", f"must be one of {', '.join(PRIMITIVES)}, got {primitive!r}")
-        self.primitive = primitive
         self.scene = scene
         self.max_memory = resolve_max_memory(max_memory, src)  # bytes; None = no limit known
         try:
@@ -177,6 +183,11 @@ class Renderer:
         self.doppler_color = bool(settings.doppler_color)
         self.searchlight = bool(settings.searchlight)
         self.precision = Precision(settings.precision or Precision.FLOAT32)
+        if primitive is None:
+            primitive = "rigid" if self.precision == Precision.FLOAT32 else "prism"
+        if primitive == "rigid" and self.precision != Precision.FLOAT32:
+            raise SceneError.at(src, None, "primitive", "rigid traces in float32 only; use prism or tet for float64")
+        self.primitive = primitive
         width = _positive_int(width, "width", src)
         height = _positive_int(height, "height", src)
         res = settings.resolution or DEFAULT_RESOLUTION
@@ -220,6 +231,7 @@ class Renderer:
         (``database_cache``), else built now and cached on the scene."""
         from warp_st.kernels import get_kernels
         from warp_st.rendering.device import StaticArrays
+        from warp_st.rendering.device_rigid import RigidArrays
 
         wp = _warp()
         t0 = time.perf_counter()
@@ -245,11 +257,13 @@ class Renderer:
                      max_depth=self.max_depth)
         pixels = self.width * self.height
         db = next((d for d in cache.candidates(tessellation, self.primitive, windows)
-                   if self.max_memory is None or estimate_bytes(d.tetrahedra, d.vertices, pixels) <= self.max_memory),
-                  None)
+                   if self.max_memory is None or d.nbytes + pixels * BYTES_PER_PIXEL <= self.max_memory), None)
         self.stats.database_built = db is None
         if db is None:
-            db = self._new_database(scene, windows, tessellation, t0)
+            if self.primitive == "rigid":
+                db = self._new_rigid_database(scene, windows, tessellation, cache, t0)
+            else:
+                db = self._new_database(scene, windows, tessellation, t0)
             cache.add(db)
         else:
             cache.use(db)
@@ -259,19 +273,24 @@ class Renderer:
         self.stats.compile_seconds = time.perf_counter() - tc
         t3 = time.perf_counter()
         if self.precision.value not in db.static:
-            db.static[self.precision.value] = StaticArrays(self.kernels, db.mesh, db.bvh)
+            db.static[self.precision.value] = (
+                RigidArrays(self.kernels, db.shapes, db.bottom, db.segments, db.bvh) if self.primitive == "rigid"
+                else StaticArrays(self.kernels, db.mesh, db.bvh))
         self.database = db
         self.static = db.static[self.precision.value]
-        self.mesh, self.bvh = db.mesh, db.bvh
-        self.memory_estimate = estimate_bytes(db.tetrahedra, db.vertices, pixels)
+        self.mesh, self.bvh, self.segments = db.mesh, db.bvh, db.segments
+        self.memory_estimate = db.nbytes + pixels * BYTES_PER_PIXEL
         self.fine_segments = db.fine
-        self.stats.tetrahedra = db.mesh.tet_count
-        self.stats.primitives = db.mesh.prim_count
-        self.stats.bvh_nodes = db.bvh.node_count_total
-        self.stats.bvh_depth = db.bvh.depth
-        self.stats.extrude_seconds = db.stats.extrude_seconds
-        self.stats.bvh_seconds = db.stats.bvh_seconds
-        self.stats.upload_seconds = time.perf_counter() - t3
+        s = self.stats
+        s.tetrahedra = db.mesh.tet_count if db.mesh is not None else 0
+        s.primitives = db.mesh.prim_count if db.mesh is not None else db.segments.count
+        s.triangles = db.shapes.triangle_count if db.shapes is not None else 0
+        s.segments = db.segments.count if db.segments is not None else 0
+        s.bvh_nodes = db.bvh.node_count_total
+        s.bvh_depth = db.bvh.depth
+        s.extrude_seconds = db.stats.extrude_seconds
+        s.bvh_seconds = db.stats.bvh_seconds
+        s.upload_seconds = time.perf_counter() - t3
 
     def _windows(self, scene: Scene, cams: list[CameraState], modes, shutter: float) -> list:
         """Per body, the lab times the cameras can see: the union over the light-speed modes."""
@@ -299,14 +318,38 @@ class Renderer:
         t2 = time.perf_counter()
         built = _BuildStats(extrude_seconds=t2 - bvh.build_seconds - t0, bvh_seconds=bvh.build_seconds)
         return database_cache.Database(tessellation=tessellation, primitive=self.primitive, fine=fine,
-                                       windows=windows, mesh=mesh, bvh=bvh, tetrahedra=mesh.tet_count,
-                                       vertices=len(mesh.vertices), stats=built)
+                                       windows=windows, mesh=mesh, bvh=bvh, stats=built,
+                                       nbytes=estimate_bytes(mesh.tet_count, len(mesh.vertices)))
+
+    def _new_rigid_database(self, scene: Scene, windows: list, tessellation: tuple, cache, t0: float):
+        """The rigid database over ``windows``: the tessellation's shapes and bottom levels
+        (cached on the scene apart, built on first use) under a new top level."""
+        from warp_st.accel.instances import BottomLevels, build_top_level
+        from warp_st.spacetime.rigid import motion_segments, rigid_shapes
+
+        def shapes_and_bottom():
+            shapes = rigid_shapes(scene)
+            return shapes, BottomLevels(shapes)
+
+        nbytes = check_resources(scene, windows, width=self.width, height=self.height, samples=self.samples,
+                                 max_depth=self.max_depth, max_memory=self.max_memory, rigid=True)
+        nbytes -= self.width * self.height * BYTES_PER_PIXEL
+        shapes, bottom = cache.shapes(tessellation, shapes_and_bottom)
+        segments = motion_segments(scene, shapes, windows)
+        top = build_top_level(segments)
+        built = _BuildStats(extrude_seconds=time.perf_counter() - t0 - top.build_seconds,
+                            bvh_seconds=top.build_seconds)
+        return database_cache.Database(tessellation=tessellation, primitive="rigid", fine=True, windows=windows,
+                                       bvh=top, segments=segments, shapes=shapes, bottom=bottom, stats=built,
+                                       nbytes=nbytes)
 
     def describe(self) -> dict:
         s = self.stats
         return {
             "tetrahedra": s.tetrahedra,
             "primitive": self.primitive,
+            "triangles": s.triangles,
+            "motion_segments": s.segments,
             "time_segments": "per triangle" if self.fine_segments else "per body (memory)",
             "bvh_nodes": s.bvh_nodes,
             "extrude_seconds": round(s.extrude_seconds, 4),
@@ -329,6 +372,7 @@ class Renderer:
         """Render one frame (a USD time code) to an :class:`Image`."""
         from warp_st.rendering.camera import make_camera
         from warp_st.rendering.device import make_geometry, make_shading
+        from warp_st.rendering.device_rigid import make_rigid_geometry
 
         wp = _warp()
         frame = self.frames[0] if frame is None else self._frame_value(frame)
@@ -341,8 +385,13 @@ class Renderer:
         t_start = time.perf_counter()
         k = self.kernels
         origin = np.array([cam.time, *cam.position], dtype=np.float64)
-        geo = self.database.geometry_for(self.precision.value, tuple(origin.tolist()),
-                                         lambda: make_geometry(k, self.static, self.mesh, self.bvh, origin))
+        if self.primitive == "rigid":
+            def make():
+                return make_rigid_geometry(k, self.static, self.segments, self.bvh, origin)
+        else:
+            def make():
+                return make_geometry(k, self.static, self.mesh, self.bvh, origin)
+        geo = self.database.geometry_for(self.precision.value, tuple(origin.tolist()), make)
         background = self.settings.background or (0.0, 0.0, 0.0)
         shd = make_shading(
             k, self.static, self.scene.lights, origin, background, self.max_depth,
@@ -443,13 +492,6 @@ def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fin
     mesh = dataclasses.replace(extrude_scene(scene, windows, fine=fine), primitive=primitive)
     lo, hi = mesh.prim_boxes() if mesh.prim_count else (np.zeros((0, 4)), np.zeros((0, 4)))
     bvh = build_bvh(lo, hi, primitive=primitive)
-    if mesh.prim_count == 0:
-        # No geometry: the empty build's root is an inverted box. The kernel tests the
-        # root's box before anything else; one at t = +inf is never entered by a null
-        # ray on a past (or infinite-c) lightcone (and bvh_wide.collapse gives one
-        # empty wide node).
-        far = np.array([[np.inf, 0.0, 0.0, 0.0]])
-        bvh = dataclasses.replace(bvh, node_lo=far, node_hi=far.copy())
     if primitive == "prism":
         mesh = dataclasses.replace(mesh, prisms=mesh.prisms[bvh.order], prism_tri=mesh.prism_tri[bvh.order],
                                    prism_span=mesh.prism_span[bvh.order])

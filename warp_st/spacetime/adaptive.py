@@ -14,7 +14,8 @@ from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Body, Scene
 from warp_st.spacetime.visibility import frame_window
 
-__all__ = ["adapt_sphere_tessellation", "sphere_tessellation", "retessellated", "sphere_segments_for_view", "min_pixel_angle", "retessellate_sphere"]
+__all__ = ["adapt_sphere_tessellation", "sphere_tessellation", "retessellated", "sphere_segments_for_view",
+           "min_pixel_angle", "retessellate_sphere"]
 
 
 # --------------------------------------------------------------------------- adaptive spheres

@@ -26,19 +26,43 @@ from warp_st.core.scene import Body, Scene, surface_triangles
 from warp_st.spacetime.visibility import intervals
 
 __all__ = [
+    "TriangleTables",
     "SpacetimeMesh",
+    "BodyTriangles",
+    "body_triangles",
     "extrude_scene",
     "body_slices",
 ]
 
 
 @dataclass(frozen=True, eq=False)
-class SpacetimeMesh:
-    """The static 4D database, lab frame, float64 on the host.
+class TriangleTables:
+    """Per-triangle shading tables, lab frame, float64 on the host (the extrusion's and
+    the rigid shapes' alike; ``rendering.device.ShadingTables`` uploads them).
 
-    vertices: events (t, x, y, z), shape (V, 4).
     vertex_normals: shading normals of the contracted surface in the lab, (V, 3);
         only meaningful for triangles with ``tri_smooth``.
+    tri_normal: unit lab-frame normal of each contracted triangle, (T, 3).
+    tri_smooth: 1 where the triangle interpolates vertex normals, (T,), int32.
+    tri_size: longest edge of each contracted triangle, (T,).
+    tri_body, tri_material: indices into ``bodies`` / ``materials``, (T,), int32.
+    """
+
+    vertex_normals: np.ndarray
+    tri_normal: np.ndarray
+    tri_smooth: np.ndarray
+    tri_size: np.ndarray
+    tri_body: np.ndarray
+    tri_material: np.ndarray
+    materials: tuple
+    bodies: tuple
+
+
+@dataclass(frozen=True, eq=False)
+class SpacetimeMesh(TriangleTables):
+    """The static 4D database, lab frame, float64 on the host (and ``TriangleTables``).
+
+    vertices: events (t, x, y, z), shape (V, 4); ``vertex_normals`` has a row per vertex.
     tets: vertex indices, ascending in each row, shape (N, 4), int32.
     tet_tri: the triangle each tetrahedron was extruded from, (N,), int32.
     prisms: the same extrusion as prisms (each the union of three of the tetrahedra):
@@ -49,26 +73,14 @@ class SpacetimeMesh:
         next segment (see ``prism_spans``).
     primitive: what a BVH built over this mesh indexes, "tet" or "prism"
         (``renderer.build_database`` reorders that array into leaf order).
-    tri_normal: unit lab-frame normal of each contracted triangle, (T, 3).
-    tri_smooth: 1 where the triangle interpolates vertex normals, (T,), int32.
-    tri_size: longest edge of each contracted triangle, (T,).
-    tri_body, tri_material: indices into ``bodies`` / ``materials``, (T,), int32.
     """
 
     vertices: np.ndarray
-    vertex_normals: np.ndarray
     tets: np.ndarray
     tet_tri: np.ndarray
     prisms: np.ndarray
     prism_tri: np.ndarray
     prism_span: np.ndarray
-    tri_normal: np.ndarray
-    tri_smooth: np.ndarray
-    tri_size: np.ndarray
-    tri_body: np.ndarray
-    tri_material: np.ndarray
-    materials: tuple
-    bodies: tuple
     primitive: str = "tet"
 
     @property
@@ -155,6 +167,69 @@ def _body_size(body: Body) -> float:
     return max(extent, 1e-6)
 
 
+@dataclass(frozen=True, eq=False)
+class BodyTriangles:
+    """One body's surfaces as one triangle set (surfaces without triangles left out).
+
+    rest: rest-frame positions r = p - o about the pivot, (P, 3) (the authored shape is
+        the proper shape: docs/spec.md §2);
+    local: the contracted lab positions at the reference time, o + A r, (P, 3);
+    normals: contracted shading normals, unit, (P, 3) (zeros on flat surfaces);
+    triangles: indices into the points, (T, 3); tri_normal / tri_smooth / tri_size /
+        tri_material: as SpacetimeMesh's, per triangle.
+    """
+
+    rest: np.ndarray
+    local: np.ndarray
+    normals: np.ndarray
+    triangles: np.ndarray
+    tri_normal: np.ndarray
+    tri_smooth: np.ndarray
+    tri_size: np.ndarray
+    tri_material: np.ndarray
+
+
+def body_triangles(body: Body, materials: list, mat_index: dict) -> BodyTriangles | None:
+    """``body``'s triangle set (None without triangles); new materials are appended to
+    ``materials`` (``mat_index`` maps a Material to its index)."""
+    A = contraction_matrix(body.velocity, body.decoupled)
+    A_inv_t = np.linalg.inv(A).T
+    parts = []
+    base = 0
+    for surf in body.surfaces:
+        tris = surface_triangles(surf)
+        if len(tris) == 0:
+            continue
+        pts = np.asarray(surf.points, dtype=np.float64)
+        if surf.normals is not None:
+            nrm = np.asarray(surf.normals, dtype=np.float64) @ A_inv_t.T
+            nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+        else:
+            nrm = np.zeros((len(pts), 3))
+        if surf.material not in mat_index:
+            mat_index[surf.material] = len(materials)
+            materials.append(surf.material)
+        parts.append((pts, nrm, tris + base, surf.normals is not None, mat_index[surf.material]))
+        base += len(pts)
+    if not parts:
+        return None
+    rest = np.concatenate([p[0] for p in parts]) - body.origin
+    local = rest @ A.T + body.origin  # contracted offsets from the pivot at the reference time
+    tris = np.concatenate([p[2] for p in parts])
+    # Triangle normals of the contracted shape (lab frame, constant in time).
+    e1 = local[tris[:, 1]] - local[tris[:, 0]]
+    e2 = local[tris[:, 2]] - local[tris[:, 0]]
+    fn = np.cross(e1, e2)
+    fn /= np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-300)
+    counts = [len(p[2]) for p in parts]
+    return BodyTriangles(
+        rest=rest, local=local, normals=np.concatenate([p[1] for p in parts]), triangles=tris, tri_normal=fn,
+        tri_smooth=np.repeat(np.array([1 if p[3] else 0 for p in parts], dtype=np.int32), counts),
+        tri_size=longest_edges(local, tris),
+        tri_material=np.repeat(np.array([p[4] for p in parts], dtype=np.int32), counts),
+    )
+
+
 def extrude_scene(scene: Scene, windows: list, *, fine: bool = True) -> SpacetimeMesh:
     """Extrude every body of ``scene`` over its visible time window.
 
@@ -174,50 +249,27 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True) -> Spacetim
         parts = intervals(window)
         if not parts or not body.surfaces:
             continue
-        A = contraction_matrix(body.velocity, body.decoupled)
-        A_inv_t = np.linalg.inv(A).T
-        part_slices = [body_slices(body, part, fine=fine) for part in parts]  # each interval on its own
-        for surf in body.surfaces:
-            tris = surface_triangles(surf)
-            if len(tris) == 0:
-                continue
-            pts = np.asarray(surf.points, dtype=np.float64)
-            n_pts = len(pts)
-            # Contracted offsets from the pivot at the reference time.
-            local = (pts - body.origin) @ A.T + body.origin
-            if surf.normals is not None:
-                nrm = np.asarray(surf.normals, dtype=np.float64) @ A_inv_t.T
-                nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
-            else:
-                nrm = np.zeros((n_pts, 3))
-
-            # Triangle normals of the contracted shape (lab frame, constant in time).
-            e1 = local[tris[:, 1]] - local[tris[:, 0]]
-            e2 = local[tris[:, 2]] - local[tris[:, 0]]
-            tri_size.append(longest_edges(local, tris))
-            fn = np.cross(e1, e2)
-            fn /= np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-300)
-            key = surf.material
-            if key not in mat_index:
-                mat_index[key] = len(materials)
-                materials.append(key)
-            n_tri = len(tris)
-            tri_normal.append(fn)
-            tri_smooth.append(np.full(n_tri, 1 if surf.normals is not None else 0, dtype=np.int32))
-            tri_body.append(np.full(n_tri, b_index, dtype=np.int32))
-            tri_material.append(np.full(n_tri, mat_index[key], dtype=np.int32))
-
-            for slices in part_slices:
-                ev = _slice_events(local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
-                verts.append(ev.reshape(-1, 4))
-                vnorms.append(np.broadcast_to(nrm, (len(slices), n_pts, 3)).reshape(-1, 3))
-                tets.append(_prism_tets(tris, n_pts, len(slices) - 1) + v_base)
-                tet_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), 3 * (len(slices) - 1)) + t_base)
-                prisms.append(_prisms(tris, n_pts, len(slices) - 1) + v_base)
-                prism_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), len(slices) - 1) + t_base)
-                spans.append(np.repeat(prism_spans(slices), n_tri, axis=0))
-                v_base += len(slices) * n_pts
-            t_base += n_tri
+        bt = body_triangles(body, materials, mat_index)
+        if bt is None:
+            continue
+        tris, n_pts, n_tri = bt.triangles, len(bt.local), len(bt.triangles)
+        tri_normal.append(bt.tri_normal)
+        tri_smooth.append(bt.tri_smooth)
+        tri_size.append(bt.tri_size)
+        tri_body.append(np.full(n_tri, b_index, dtype=np.int32))
+        tri_material.append(bt.tri_material)
+        for part in parts:  # each interval on its own
+            slices = body_slices(body, part, fine=fine)
+            ev = _slice_events(bt.local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
+            verts.append(ev.reshape(-1, 4))
+            vnorms.append(np.broadcast_to(bt.normals, (len(slices), n_pts, 3)).reshape(-1, 3))
+            tets.append(_prism_tets(tris, n_pts, len(slices) - 1) + v_base)
+            tet_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), 3 * (len(slices) - 1)) + t_base)
+            prisms.append(_prisms(tris, n_pts, len(slices) - 1) + v_base)
+            prism_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), len(slices) - 1) + t_base)
+            spans.append(np.repeat(prism_spans(slices), n_tri, axis=0))
+            v_base += len(slices) * n_pts
+        t_base += n_tri
 
     def cat(parts, shape, dtype):
         return np.concatenate(parts).astype(dtype) if parts else np.zeros(shape, dtype=dtype)

@@ -1,0 +1,220 @@
+"""Ray casting against rigid bodies as instances (pure Warp device code, float32).
+
+Two levels (``warp_st.spacetime.rigid``, ``warp_st.accel.instances``):
+
+- top: the 4-wide 4D BVH (``traverse.py``) over motion segments, each a body over a
+  lab-time span [t_lo, t_hi] with its 4D box;
+- bottom: one ``wp.Mesh`` per distinct shape, its triangles at rest in body coordinates.
+
+A leaf's segment takes the ray E(s) = O + s d into its body's coordinates: with the
+body's reference event (t_ref, o) on the pivot's worldline as anchor, the ray is the
+3D line (spacetime/rigid.py)
+
+    r(s) = A^-1 (w + s D),   w = o_x - o - v (o_t - t_ref),   D = n + v  (finite c)
+                                                               D = n      (infinite c)
+
+(A^-1 = I for decoupled bodies), computed in float64, and s is the mesh query's own
+parameter. The segment admits s in [s_lo, s_hi]: (s_min, best) cut to its span
+(t = o_t - s in [t_lo, t_hi]; with infinite c, o_t itself must lie in it). The query
+runs over the part of that where r(s) is inside the body's rest box (see ``leaf``).
+Hits on body ``skip_body`` nearer than ``skip_dist`` are left out by starting that
+body's query at skip_dist instead: the same rule as the prism path, without a test per
+hit. A hit on the triangle a secondary ray leaves (``skip_tri``: a grazing ray can meet
+its own facet again within rounding) is stepped over and the query repeated; for that
+body a shadow ray runs the closest-hit query (which sees triangles), every other body
+the any-hit one.
+
+The hit's barycentrics (u, v, 1 - u - v) weigh the triangle's vertices in the mesh's
+index order; the primitive index returned is the global triangle (``prim_tri`` is the
+identity), so the shading reads the same tables as on the prism path.
+"""
+
+import warp as wp
+
+from warp_st.kernels.traverse import make_box_ops, make_traverse
+
+__all__ = ["make_trace_rigid"]
+
+
+def make_trace_rigid(scalar):
+    if scalar != wp.float32:
+        raise ValueError("the rigid (two-level) path traces in float32 (wp.Mesh); use primitive='prism' for float64")
+    vec2 = wp.types.vector(2, scalar)
+    vec3 = wp.types.vector(3, scalar)
+    vec4 = wp.types.vector(4, scalar)
+    vec16 = wp.types.vector(16, scalar)
+    fmin, fmax, safe_inv, SLAB_GROW = make_box_ops(scalar)
+    BIG = 1.0e30
+    # A hit on the triangle a secondary ray leaves (skip_tri) is stepped over by this
+    # fraction of its lookback (and as much absolutely): far past the float32 rounding of
+    # the crossing (~1e-7), far below the self-intersection offset SELF_EPS (1e-4).
+    SKIP_STEP = 1.0e-6
+
+    @wp.struct
+    class Geometry:
+        # Shading tables (global triangles; prim_tri is the identity, prim_vidx a
+        # triangle's three global vertices and the first again).
+        prim_vidx: wp.array(dtype=wp.vec4i)
+        prim_tri: wp.array(dtype=wp.int32)
+        tri_body: wp.array(dtype=wp.int32)
+        # Bodies: bottom level (wp.Mesh id of the body's shape), first global triangle,
+        # velocity and rest_from_lab (A^-1) in float64 (see ``to_body``).
+        body_mesh: wp.array(dtype=wp.uint64)
+        body_tri_base: wp.array(dtype=wp.int32)
+        body_velocity: wp.array(dtype=wp.vec3d)
+        body_rest: wp.array(dtype=wp.mat33d)
+        body_rest_lo: wp.array(dtype=wp.vec3d)  # the shape's box in its frame's coordinates, padded
+        body_rest_hi: wp.array(dtype=wp.vec3d)
+        body_start_lo: wp.array(dtype=wp.vec3d)  # the box of every shape held in that frame
+        body_start_hi: wp.array(dtype=wp.vec3d)
+        body_anchor: wp.array(dtype=wp.vec4d)  # the frame's event relative to the render origin
+        body_end: wp.array(dtype=wp.float64)  # the lifetime's end relative to the render origin
+        # Motion segments in top-level leaf order: body, lab-time span (t_lo, t_hi) and
+        # 4D box, relative to the render origin.
+        seg_body: wp.array(dtype=wp.int32)
+        seg_span: wp.array(dtype=vec2)
+        seg_lo: wp.array(dtype=vec4)
+        seg_hi: wp.array(dtype=vec4)
+        # The top level's 4-wide BVH over the segments (traverse.py).
+        node_lo: wp.array(dtype=vec16)
+        node_hi: wp.array(dtype=vec16)
+        node_link: wp.array(dtype=wp.vec4i)
+        root_lo: vec4
+        root_hi: vec4
+
+    @wp.struct
+    class Ray:
+        inv: vec4  # 1 / d per axis for the segment boxes' slab test
+        fin: scalar  # 1 for finite light speed (D = n + v), 0 for infinite (D = n)
+
+    @wp.func
+    def prepare(g: Geometry, o: vec4, n: vec3, finite: int) -> Ray:
+        r = Ray()
+        inv_t = scalar(BIG)
+        r.fin = scalar(0.0)
+        if finite != 0:
+            inv_t = scalar(-1.0)
+            r.fin = scalar(1.0)
+        r.inv = vec4(inv_t, safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
+        return r
+
+    @wp.func
+    def box_range(lo: vec4, hi: vec4, o: vec4, inv: vec4, s_lo: scalar, s_hi: scalar):
+        """(s_lo, s_hi) cut to where the ray is inside the 4D box [lo, hi] (empty: s_lo > s_hi)."""
+        a = wp.cw_mul(lo - o, inv)
+        b = wp.cw_mul(hi - o, inv)
+        near = s_lo
+        far = s_hi
+        for k in range(4):
+            near = fmax(near, fmin(a[k], b[k]))
+            far = fmin(far, fmax(a[k], b[k]) * scalar(SLAB_GROW))
+        return near, far
+
+    @wp.func
+    def body_ray(g: Geometry, body: int, o: vec4, n: vec3, fin: scalar):
+        """The ray in the coordinates of ``body``'s frame, r(s) = p + s d, in float64 from
+        the frame's event (the anchor; spacetime/rigid.py): (p, d)."""
+        a = g.body_anchor[body]
+        v = g.body_velocity[body]
+        rest = g.body_rest[body]
+        d = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2])) + v * wp.float64(fin)
+        w = wp.vec3d(wp.float64(o[1]) - a[1], wp.float64(o[2]) - a[2], wp.float64(o[3]) - a[3]) - v * (
+            wp.float64(o[0]) - a[0])
+        return rest * w, rest * d
+
+    @wp.func
+    def rest_range(lo: wp.vec3d, hi: wp.vec3d, p: wp.vec3d, d: wp.vec3d, s0: wp.float64, s1: wp.float64):
+        """[s0, s1] cut to where r(s) = p + s d lies in the box [lo, hi] (float64 slabs;
+        empty: s0 >= s1)."""
+        for k in range(3):
+            if d[k] != wp.float64(0.0):
+                inv = wp.float64(1.0) / d[k]
+                a = (lo[k] - p[k]) * inv
+                b = (hi[k] - p[k]) * inv
+                s0 = wp.max(s0, wp.min(a, b))
+                s1 = wp.min(s1, wp.max(a, b))
+            elif p[k] < lo[k] or p[k] > hi[k]:
+                s1 = wp.float64(-1.0)
+        return s0, s1
+
+    @wp.func
+    def at(p: wp.vec3d, d: wp.vec3d, s: wp.float64) -> vec3:
+        q = p + d * s
+        return vec3(scalar(q[0]), scalar(q[1]), scalar(q[2]))
+
+    @wp.func
+    def leaf(g: Geometry, ray: Ray, first: int, count: int, o: vec4, n: vec3, finite: int, s_min: scalar,
+             best: scalar, best_prim: int, best_lam: vec4, skip_tri: int, skip_body: int, skip_dist: scalar,
+             any_hit: int):
+        """The closest hit so far, updated by the leaf's motion segments (see the module docstring).
+
+        The query starts where the ray enters the rest box of the body's frame (float64,
+        the frame's event as anchor; spacetime/rigid.rigid_shapes): neither depends on
+        the segment, so a hit comes out bit-identical from whichever database (windows,
+        segments) it is found in; bodies sharing a frame get the same float32 ray, so
+        none slips through their seams; and the rounding is of the frame's size, not
+        of the distance. A hit before
+        the segment's span (possible where a lifetime or a cut between segments ends it
+        inside the box) is discarded and the query repeated from past it: from the
+        lifetime's end if the hit lies beyond that (the start is still the body's), else
+        from the span's start (then the dropped hit is another segment's, and nearer)."""
+        for k in range(count):
+            si = first + k
+            span = g.seg_span[si]
+            body = g.seg_body[si]
+            s_from = s_min
+            if body == skip_body:
+                s_from = fmax(s_from, skip_dist)
+            s_lo = s_from
+            s_hi = best
+            if finite != 0:
+                s_lo = fmax(s_lo, o[0] - span[1])
+                s_hi = fmin(s_hi, o[0] - span[0])
+            elif o[0] < span[0] or o[0] > span[1]:
+                s_hi = scalar(-1.0)
+            b_lo, b_hi = box_range(g.seg_lo[si], g.seg_hi[si], o, ray.inv, s_lo, s_hi)
+            if s_lo < s_hi and b_lo <= b_hi:
+                p, d = body_ray(g, body, o, n, ray.fin)
+                e0, e1 = rest_range(g.body_rest_lo[body], g.body_rest_hi[body], p, d, wp.float64(s_from),
+                                    wp.float64(s_hi))
+                if e0 < e1:  # the body's own box is met: start where its frame's is entered
+                    e0, _e = rest_range(g.body_start_lo[body], g.body_start_hi[body], p, d, wp.float64(s_from),
+                                        wp.float64(s_hi))
+                direction = vec3(scalar(d[0]), scalar(d[1]), scalar(d[2]))
+                mesh = g.body_mesh[body]
+                base = g.body_tri_base[body]
+                if any_hit != 0 and body != skip_body:
+                    e0 = wp.max(e0, wp.float64(s_lo))
+                    if e0 < e1:
+                        if wp.mesh_query_ray_anyhit(mesh, at(p, d, e0), direction, scalar(e1 - e0)):
+                            return s_hi, base, vec4(scalar(0.0))
+                else:
+                    # Start at the body's rest box. A hit on ``skip_tri`` is stepped over;
+                    # one before the span (a later lab time) is dropped and the query
+                    # repeated from past it: from the lifetime's end when the hit lies
+                    # beyond it, else from the span.
+                    s_life = wp.float64(o[0]) - g.body_end[body]
+                    for attempt in range(4):
+                        if e0 < e1:
+                            q = wp.mesh_query_ray(mesh, at(p, d, e0), direction, scalar(e1 - e0))
+                            if q.result:
+                                s = e0 + wp.float64(q.t)
+                                if base + q.face == skip_tri:
+                                    e0 = s + wp.float64(SKIP_STEP) * (wp.float64(1.0) + wp.abs(s))
+                                elif s >= wp.float64(s_lo):
+                                    best = scalar(s)
+                                    best_prim = base + q.face
+                                    best_lam = vec4(q.u, q.v, scalar(1.0) - q.u - q.v, scalar(0.0))
+                                    e1 = wp.float64(-1.0)
+                                elif s < s_life:
+                                    e0 = s_life
+                                else:
+                                    e0 = wp.float64(s_lo)
+                            else:
+                                e1 = wp.float64(-1.0)
+                    if any_hit != 0 and best_prim >= 0:
+                        return best, best_prim, best_lam
+        return best, best_prim, best_lam
+
+    trace = make_traverse(scalar, Geometry, prepare, leaf)
+    return Geometry, trace, prepare, leaf

@@ -1,0 +1,215 @@
+"""The 4-wide 4D BVH traversal, generic over what its leaves hold (pure Warp device code).
+
+A ray is the null line E(s) = O + s d with d = (-1, n) for finite light speed or
+(0, n) for infinite light speed (docs/spec.md §1), s >= 0 the lookback, in render-origin
+coordinates. The tree is bvh_wide.py's: wide node j's four child boxes axis-major
+(t0..t3, x0..x3, y0..y3, z0..z3) in ``node_lo[j]`` / ``node_hi[j]``, its children's links
+``first << LINK_SHIFT | count`` in ``node_link[j]`` (a leaf's range, or a wide node with
+count 0; -1 for an empty slot), the root wide node 0 with its box ``root_lo``/``root_hi``.
+
+The leaves are the caller's: prisms or tetrahedra (``trace.py``), rigid bodies' motion
+segments (``trace_rigid.py``). ``make_traverse`` takes
+
+- ``prepare(g, o, n, finite) -> Ray``: what the leaf test needs per ray, computed once
+  after the root box test (rays that miss the whole database return before it);
+- ``leaf(g, ray, first, count, o, n, finite, s_min, best, best_prim, best_lam,
+  skip_tri, skip_body, skip_dist, any_hit) -> (best, best_prim, best_lam)``: the closest
+  hit so far updated by primitives first .. first + count - 1.
+
+Traversal: nearest child first with a fixed stack; a visit tests its four child boxes
+as one 16-lane slab test and carries the children's packed links, loaded beside their
+boxes. A null ray meets a 4D box by the usual slab test plus the t slab (t = t_c - s).
+"""
+
+import warp as wp
+
+from warp_st.kernels.layout import LINK_MASK, LINK_SHIFT, MAX_WIDE_DEPTH
+
+__all__ = ["make_traverse", "make_box_ops", "STACK_SIZE"]
+
+#: Traversal stack entries: a visit pushes at most three children, so three per level
+#: of the wide tree (bvh_wide.MAX_WIDE_DEPTH) bound it. Zero-initialised per ray, so
+#: no larger than needed.
+STACK_SIZE = 3 * MAX_WIDE_DEPTH
+
+
+def make_box_ops(scalar):
+    """(fmin, fmax, safe_inv, slab_grow): the slab test's scalar helpers."""
+    BIG = 1.0e30
+    # pbrt's gamma(3)-style widening of the slab interval against rounding.
+    EPS = 6.0e-8 if wp.types.type_size_in_bytes(scalar) == 4 else 1.12e-16
+    SLAB_GROW = 1.0 + 32.0 * EPS
+
+    # min/max as single compare-selects (x86 minss/maxss). wp.min/wp.max guard NaN
+    # arguments with a second compare each, which doubled the slab test's cost; the
+    # slab values here are never NaN (safe_inv keeps 1/d finite and non-zero, box
+    # corners are finite or t = +inf).
+    @wp.func
+    def fmin(a: scalar, b: scalar) -> scalar:
+        return wp.where(a < b, a, b)
+
+    @wp.func
+    def fmax(a: scalar, b: scalar) -> scalar:
+        return wp.where(a > b, a, b)
+
+    @wp.func
+    def safe_inv(x: scalar) -> scalar:
+        if wp.abs(x) < scalar(1.0e-30):
+            if x < scalar(0.0):
+                return -scalar(BIG)
+            return scalar(BIG)
+        return scalar(1.0) / x
+
+    return fmin, fmax, safe_inv, SLAB_GROW
+
+
+def make_traverse(scalar, Geometry, prepare, leaf):
+    """``trace(g, o, n, finite, s_min, s_max, skip_tri, skip_body, skip_dist, any_hit)``
+    over ``Geometry``'s 4-wide BVH with the leaf test ``leaf`` (see the module docstring).
+
+    Returns (primitive index or -1, s, barycentrics, nodes visited, stack overflowed).
+    """
+    vec3 = wp.types.vector(3, scalar)
+    vec4 = wp.types.vector(4, scalar)
+    vec16 = wp.types.vector(16, scalar)
+    stack_i = wp.types.vector(STACK_SIZE, wp.int32)
+    stack_s = wp.types.vector(STACK_SIZE, scalar)
+    BIG = 1.0e30
+    INF = float("inf")
+    fmin, fmax, safe_inv, SLAB_GROW = make_box_ops(scalar)
+
+    @wp.func
+    def box_quad(g: Geometry, node: int, o16: vec16, inv16: vec16, s_min: scalar, s_max: scalar):
+        """Slab tests of wide node ``node``'s four child boxes at once: (entries, exits).
+        Child k is hit when entries[k] <= exits[k]. The t slab is t = t_c - s.
+
+        All sixteen slabs as vector ops (the compiler packs them into SIMD lanes), the
+        reductions over the four axes as trees. The far exit widens once at the end,
+        as pbrt's does per slab (the scale is positive, so min and scale commute; a
+        negative exit misses either way)."""
+        a = wp.cw_mul(g.node_lo[node] - o16, inv16)
+        b = wp.cw_mul(g.node_hi[node] - o16, inv16)
+        n = vec16()
+        f = vec16()
+        for k in range(16):
+            n[k] = fmin(a[k], b[k])
+            f[k] = fmax(a[k], b[k])
+        near = vec4()
+        far = vec4()
+        for k in range(4):
+            near[k] = fmax(fmax(fmax(n[k], n[4 + k]), fmax(n[8 + k], n[12 + k])), s_min)
+            far[k] = fmin(fmin(fmin(f[k], f[4 + k]), fmin(f[8 + k], f[12 + k])) * scalar(SLAB_GROW), s_max)
+        return near, far
+
+    @wp.func
+    def order2(e: vec4, l: wp.vec4i, i: int, j: int):
+        """Compare-exchange of entries i < j (with their links) into ascending order."""
+        if e[j] < e[i]:
+            t = e[i]
+            e[i] = e[j]
+            e[j] = t
+            m = l[i]
+            l[i] = l[j]
+            l[j] = m
+        return e, l
+
+    @wp.func
+    def trace(
+        g: Geometry,
+        o: vec4,
+        n: vec3,
+        finite: int,
+        s_min: scalar,
+        s_max: scalar,
+        skip_tri: int,
+        skip_body: int,
+        skip_dist: scalar,
+        any_hit: int,
+    ):
+        """Closest (or, with any_hit, any) hit with lookback in (s_min, s_max).
+
+        Hits on triangle ``skip_tri``, and on body ``skip_body`` nearer than
+        ``skip_dist``, are ignored (secondary rays leaving a tessellated surface).
+        Near child first with a fixed stack; an overflow is reported, never silent.
+        """
+        # 1 / dt: dt = -1 on the past lightcone, 0 with infinite light speed.
+        inv_t = scalar(BIG)
+        if finite != 0:
+            inv_t = scalar(-1.0)
+        inv = vec4(inv_t, safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
+        # The scene's box first: rays that miss it (sky) return before any other set-up.
+        ra = wp.cw_mul(g.root_lo - o, inv)
+        rb = wp.cw_mul(g.root_hi - o, inv)
+        r_near = s_min
+        r_far = s_max
+        for k in range(4):
+            r_near = fmax(r_near, fmin(ra[k], rb[k]))
+            r_far = fmin(r_far, fmax(ra[k], rb[k]) * scalar(SLAB_GROW))
+        if r_near > r_far:
+            return int(-1), s_max, vec4(scalar(0.0)), int(0), int(0)
+        o16 = vec16()
+        inv16 = vec16()
+        for k in range(16):
+            o16[k] = o[k // 4]
+            inv16[k] = inv[k // 4]
+        ray = prepare(g, o, n, finite)
+        best = s_max
+        best_prim = int(-1)
+        best_lam = vec4(scalar(0.0))
+        visits = int(0)
+        overflow = int(0)
+        st_node = stack_i()
+        st_s = stack_s()
+        sp = int(0)
+        # The traversal carries packed links (first << LINK_SHIFT | count), not node
+        # indices: children's links are loaded beside their boxes, so a visit needs
+        # no dependent load before its children's boxes.
+        cur = int(0)  # wide node 0, the root
+        while cur >= 0:
+            visits += 1
+            first = cur >> LINK_SHIFT
+            count = cur & LINK_MASK
+            next_link = int(-1)
+            if count > 0:
+                best, best_prim, best_lam = leaf(g, ray, first, count, o, n, finite, s_min, best, best_prim, best_lam,
+                                                 skip_tri, skip_body, skip_dist, any_hit)
+                if any_hit != 0 and best_prim >= 0:
+                    break
+            else:
+                near, far = box_quad(g, first, o16, inv16, s_min, best)
+                links = g.node_link[first]
+                # Children missed get entry +inf; sort the four by entry (a 5-exchange
+                # network), go to the nearest hit, push the other hits farthest first.
+                e = vec4()
+                hits = int(0)
+                for k in range(4):
+                    if near[k] <= far[k]:
+                        e[k] = near[k]
+                        hits += 1
+                    else:
+                        e[k] = scalar(INF)
+                e, links = order2(e, links, 0, 1)
+                e, links = order2(e, links, 2, 3)
+                e, links = order2(e, links, 0, 2)
+                e, links = order2(e, links, 1, 3)
+                e, links = order2(e, links, 1, 2)
+                if hits > 0:
+                    next_link = links[0]
+                    if sp + hits - 1 <= STACK_SIZE:
+                        for k in range(3):
+                            j = 3 - k
+                            if j < hits:
+                                st_node[sp] = links[j]
+                                st_s[sp] = e[j]
+                                sp += 1
+                    else:
+                        overflow = 1
+            # Pop until a node whose entry is still nearer than the best hit.
+            while next_link < 0 and sp > 0:
+                sp -= 1
+                if st_s[sp] <= best:
+                    next_link = st_node[sp]
+            cur = next_link
+        return best_prim, best, best_lam, visits, overflow
+
+    return trace

@@ -1,0 +1,74 @@
+"""NumPy -> Warp for the two-level rigid database (``kernels/trace_rigid.py``).
+
+Frame-independent (``RigidArrays``): the shading tables, the bottom levels' mesh ids per
+body, each body's first triangle, velocity and rest_from_lab map, the segments' bodies
+in top-level leaf order and the top level's links. Per frame (``make_rigid_geometry``):
+the bodies' frame events, the segments' spans and boxes and the top level's boxes, recentred on
+the camera event in float64 and only then rounded (boxes outward): O(segments), so a
+frame costs no per-triangle work on the host.
+"""
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from warp_st.accel.bvh import FlatBVH
+from warp_st.accel.bvh_wide import collapse
+from warp_st.accel.instances import BottomLevels
+from warp_st.kernels import Kernels
+from warp_st.rendering.device import ShadingTables, outward, set_nodes
+from warp_st.spacetime.rigid import MotionSegments, RigidShapes
+
+__all__ = ["RigidArrays", "make_rigid_geometry"]
+
+_DEVICE = "cpu"
+
+
+class RigidArrays(ShadingTables):
+    """Frame-independent device arrays of a rigid database: ``shapes`` with their
+    ``bottom`` levels, ``segments`` under the ``top`` level (segments in input order;
+    ``top.order`` puts them in leaf order)."""
+
+    def __init__(self, k: Kernels, shapes: RigidShapes, bottom: BottomLevels, segments: MotionSegments,
+                 top: FlatBVH):
+        super().__init__(k, shapes)
+        n_tri = shapes.triangle_count
+        self.bottom = bottom  # keeps the meshes (and so their ids) alive
+        self.prim_vidx = wp.array(shapes.tri_vidx[:, [0, 1, 2, 0]].astype(np.int32).reshape(-1, 4), dtype=wp.vec4i,
+                                  device=_DEVICE)
+        self.prim_tri = wp.array(np.arange(n_tri, dtype=np.int32), dtype=wp.int32, device=_DEVICE)
+        self.body_mesh = wp.array(bottom.body_mesh, dtype=wp.uint64, device=_DEVICE)
+        self.body_tri_base = wp.array(shapes.body_tri_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
+        self.body_rest = wp.array(shapes.rest_from_lab, dtype=wp.mat33d, device=_DEVICE)
+        self.body_end = np.array([b.lifetime[1] for b in shapes.bodies], dtype=np.float64)
+        self.body_frame = shapes.body_frame
+        self.body_rest_lo = wp.array(shapes.body_rest_lo, dtype=wp.vec3d, device=_DEVICE)
+        self.body_rest_hi = wp.array(shapes.body_rest_hi, dtype=wp.vec3d, device=_DEVICE)
+        self.body_start_lo = wp.array(shapes.body_start_lo, dtype=wp.vec3d, device=_DEVICE)
+        self.body_start_hi = wp.array(shapes.body_start_hi, dtype=wp.vec3d, device=_DEVICE)
+        self.body_velocity64 = wp.array(np.array([b.velocity for b in shapes.bodies], dtype=np.float64).reshape(-1, 3),
+                                        dtype=wp.vec3d, device=_DEVICE)
+        self.order = top.order
+        self.seg_body = wp.array(segments.body[top.order].astype(np.int32), dtype=wp.int32, device=_DEVICE)
+        self.wide = collapse(top)
+        self.node_link = wp.array(self.wide.link, dtype=wp.vec4i, device=_DEVICE)
+
+
+def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegments, top: FlatBVH, origin: np.ndarray):
+    """Geometry struct of the rigid path, recentred on ``origin`` = (t_c, c)."""
+    g = k.Geometry()
+    ns = static.np_scalar
+    order = static.order
+    for name in ("prim_vidx", "prim_tri", "tri_body", "body_mesh", "body_tri_base", "body_rest", "body_rest_lo",
+                 "body_rest_hi", "body_start_lo", "body_start_hi", "seg_body"):
+        setattr(g, name, getattr(static, name))
+    g.body_velocity = static.body_velocity64
+    vec2 = wp.types.vector(2, k.scalar)
+    g.seg_span = wp.array((segments.span[order] - origin[0]).astype(ns).reshape(-1, 2), dtype=vec2, device=_DEVICE)
+    g.seg_lo = wp.array(outward(segments.lo[order] - origin, ns, -np.inf).reshape(-1, 4), dtype=k.vec4,
+                        device=_DEVICE)
+    g.seg_hi = wp.array(outward(segments.hi[order] - origin, ns, np.inf).reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
+    g.body_end = wp.array(static.body_end - origin[0], dtype=wp.float64, device=_DEVICE)
+    g.body_anchor = wp.array((static.body_frame - origin).reshape(-1, 4), dtype=wp.vec4d, device=_DEVICE)
+    set_nodes(k, g, static.wide, static.node_link, top, origin, ns)
+    return g

@@ -1,0 +1,223 @@
+"""Rigid bodies as instances: one shape at rest per body, motion segments over what the frames see.
+
+A body moving uniformly with velocity v is static in its comoving coordinates. A point
+with rest offset r from the pivot o follows x(t) = o + v (t - t_ref) + A r (A the
+contraction for coupled bodies, docs/spec.md §2; the identity for decoupled ones). The
+past null ray E(s) = (o_t - s, o_x + s n) meets it where
+
+    A r = o_x + s n - x_o(o_t - s) = w + s (n + v),   w = o_x - x_o(o_t),
+
+x_o(t) the pivot's worldline: in body coordinates the ray is the straight 3D line
+r(s) = A^-1 (w + s D), D = n + v (D = n with infinite light speed, where t = o_t), and
+s is its own parameter. So one 3D structure over the triangles at rest serves every
+time, speed and frame (the bottom level, ``accel.instances``); only the s-interval
+comes from the 4D side: the lab times t = o_t - s of the segment the ray is tested in.
+
+``rigid_shapes`` gathers each body's triangles once (frame-independent: the bottom
+levels and the shading tables); ``motion_segments`` cuts each body's visible windows
+into segments whose 4D boxes the top level bounds (frame-dependent, cheap).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from warp_st.core.lorentz import contraction_matrix
+from warp_st.core.scene import Scene
+from warp_st.spacetime.extrude import TriangleTables, _body_size, body_triangles
+from warp_st.spacetime.visibility import intervals
+
+__all__ = ["RigidShapes", "rigid_shapes", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
+
+
+@dataclass(frozen=True, eq=False)
+class RigidShapes(TriangleTables):
+    """Every body's triangles at rest and the shading tables (``TriangleTables``, one
+    row per global vertex and triangle), lab frame where not said.
+
+    shape_rest / shape_triangles: per shape, rest-frame points (P_s, 3) float64 in the
+        coordinates of the shape's frame, and triangles (T_s, 3) int32; bodies whose
+        points relative to their pivots and triangles are identical share one shape (one
+        bottom level; see ``rigid_shapes`` for the frames).
+    body_shape: shape index of each body, (B,), -1 for a body without triangles.
+    body_tri_base, body_vert_base: the body's first global triangle / vertex, (B,).
+    body_box_lo, body_box_hi: box of the contracted body at its reference time, (B, 3).
+    body_frame: the event (t, x) about which each body's shape is held, (B, 4): its own
+        reference event, or its motion group's.
+    body_rest_lo, body_rest_hi: box of the body's shape at rest in its frame's
+        coordinates, (B, 3), padded by REST_BOX_PAD of its size (which covers the float32
+        mesh's rounding); body_start_lo, body_start_hi: the box of every body held in
+        that frame (queries start where a ray enters it).
+    rest_from_lab: A^-1 per body, (B, 3, 3) (identity for decoupled bodies).
+    tri_vidx: global vertex indices of each triangle (T, 3).
+    """
+
+    shape_rest: tuple
+    shape_triangles: tuple
+    body_shape: np.ndarray
+    body_tri_base: np.ndarray
+    body_vert_base: np.ndarray
+    body_box_lo: np.ndarray
+    body_box_hi: np.ndarray
+    body_frame: np.ndarray
+    body_rest_lo: np.ndarray
+    body_rest_hi: np.ndarray
+    body_start_lo: np.ndarray
+    body_start_hi: np.ndarray
+    rest_from_lab: np.ndarray
+    tri_vidx: np.ndarray
+
+    @property
+    def triangle_count(self) -> int:
+        return int(len(self.tri_body))
+
+
+#: Rest boxes are padded by this fraction of the shape's extent from its pivot (plus
+#: the same absolutely): the float32 mesh points lie within 2^-24 of it of the float64 ones.
+REST_BOX_PAD = 1.0e-6
+
+
+def rigid_shapes(scene: Scene) -> RigidShapes:
+    """The shapes and shading tables of every body of ``scene`` (no frame enters).
+
+    Frames. A shape used by several bodies (instances: the same triangles at the same
+    place relative to each body's pivot) is held once, in body coordinates about the
+    body's reference event. Every other body is held in the coordinates of its motion
+    group (the bodies with its velocity and coupling), about the group's first body's
+    reference event: r' = r + A^-1 (o - o_g - v (t_ref - t_g)), the same worldlines. All
+    bodies of a group then see a ray as the same float32 line from the same start (the
+    entry into the group's rest box), so bodies in contact (the walls of a room) meet
+    without cracks, as triangles of one mesh do; in body coordinates each would round
+    the ray on its own and a ray through their seam could pass between them.
+    """
+    materials: list = []
+    mat_index: dict = {}
+    n_bodies = len(scene.bodies)
+    found = [body_triangles(b, materials, mat_index) if b.surfaces else None for b in scene.bodies]
+    keys = [None if bt is None else (bt.rest.astype(np.float32).tobytes(), bt.triangles.astype(np.int32).tobytes())
+            for bt in found]
+    uses: dict = {}
+    for key in keys:
+        if key is not None:
+            uses[key] = uses.get(key, 0) + 1
+    shapes: dict = {}
+    shape_rest, shape_tris = [], []
+    body_shape = np.full(n_bodies, -1, np.int32)
+    tri_base = np.zeros(n_bodies, np.int64)
+    vert_base = np.zeros(n_bodies, np.int64)
+    box_lo, box_hi = np.zeros((n_bodies, 3)), np.zeros((n_bodies, 3))
+    rest_lo, rest_hi = np.zeros((n_bodies, 3)), np.zeros((n_bodies, 3))
+    frame = np.array([[b.reference_time, *b.origin] for b in scene.bodies], dtype=np.float64).reshape(-1, 4)
+    frame_of = np.arange(n_bodies)  # the body whose frame a body's shape is held in
+    groups: dict = {}
+    rest_from_lab = np.tile(np.eye(3), (n_bodies, 1, 1))
+    tables = {k: [] for k in ("normals", "vidx", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material")}
+    n_tri = n_vert = 0
+    for i, (body, bt, key) in enumerate(zip(scene.bodies, found, keys)):
+        tri_base[i], vert_base[i] = n_tri, n_vert
+        rest_from_lab[i] = np.linalg.inv(contraction_matrix(body.velocity, body.decoupled))
+        if bt is None:
+            continue
+        rest = bt.rest
+        if uses[key] < 2:  # not an instance: held in its motion group's frame
+            g = groups.setdefault((tuple(np.asarray(body.velocity, np.float64).tolist()), bool(body.decoupled)), i)
+            frame_of[i] = g
+            offset = np.asarray(body.origin) - frame[g, 1:] - np.asarray(body.velocity) * (body.reference_time
+                                                                                         - frame[g, 0])
+            rest = rest + rest_from_lab[i] @ offset
+            key = (i,)
+        if key not in shapes:
+            shapes[key] = len(shape_rest)
+            shape_rest.append(rest)
+            shape_tris.append(bt.triangles.astype(np.int32))
+        body_shape[i] = shapes[key]
+        box_lo[i], box_hi[i] = bt.local.min(axis=0), bt.local.max(axis=0)
+        pad = REST_BOX_PAD * (1.0 + float(np.abs(rest).max()))
+        rest_lo[i], rest_hi[i] = rest.min(axis=0) - pad, rest.max(axis=0) + pad
+        tables["normals"].append(bt.normals)
+        tables["vidx"].append(bt.triangles + n_vert)
+        tables["tri_normal"].append(bt.tri_normal)
+        tables["tri_smooth"].append(bt.tri_smooth)
+        tables["tri_size"].append(bt.tri_size)
+        tables["tri_body"].append(np.full(len(bt.triangles), i, np.int32))
+        tables["tri_material"].append(bt.tri_material)
+        n_tri += len(bt.triangles)
+        n_vert += len(bt.local)
+    # Each body's queries start where the ray enters the rest box of its whole frame.
+    start_lo, start_hi = rest_lo.copy(), rest_hi.copy()
+    for g in np.unique(frame_of[body_shape >= 0]):
+        members = (frame_of == g) & (body_shape >= 0)
+        start_lo[members] = rest_lo[members].min(axis=0)
+        start_hi[members] = rest_hi[members].max(axis=0)
+
+    def cat(name, shape, dtype):
+        parts = tables[name]
+        return np.concatenate(parts).astype(dtype) if parts else np.zeros(shape, dtype)
+
+    return RigidShapes(
+        shape_rest=tuple(shape_rest), shape_triangles=tuple(shape_tris), body_shape=body_shape,
+        body_tri_base=tri_base, body_vert_base=vert_base, body_box_lo=box_lo, body_box_hi=box_hi,
+        body_frame=frame[frame_of], body_rest_lo=rest_lo, body_rest_hi=rest_hi, body_start_lo=start_lo,
+        body_start_hi=start_hi, rest_from_lab=rest_from_lab, vertex_normals=cat("normals", (0, 3), np.float64),
+        tri_vidx=cat("vidx", (0, 3), np.int32), tri_normal=cat("tri_normal", (0, 3), np.float64),
+        tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), np.float64),
+        tri_body=cat("tri_body", (0,), np.int32), tri_material=cat("tri_material", (0,), np.int32),
+        materials=tuple(materials), bodies=tuple(scene.bodies),
+    )
+
+
+#: A segment's box is the body's box swept over the segment: a body moving by more than
+#: SEGMENT_SWEEP x its size within one visible window is cut into several segments, so
+#: the top level's boxes stay within a few body sizes of the body (a ray entering a
+#: loose box costs one bottom-level query that misses).
+SEGMENT_SWEEP = 1.0
+#: Most segments per window: a window longer than this many sweeps gets longer ones.
+MAX_SEGMENTS = 64
+
+
+@dataclass(frozen=True, eq=False)
+class MotionSegments:
+    """The top level's primitives: each a body over a lab-time interval.
+
+    body: (S,) int32; span: lab times (t_lo, t_hi), (S, 2); lo, hi: 4D boxes
+    (t, x, y, z) holding the body over its span, (S, 4) each.
+    """
+
+    body: np.ndarray
+    span: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return int(len(self.body))
+
+
+def motion_segments(scene: Scene, shapes: RigidShapes, windows: list) -> MotionSegments:
+    """Each body's visible ``windows`` (per body: None, an interval or a tuple of
+    intervals, already clipped to its lifetime) cut into motion segments."""
+    rows = []
+    for i, (body, window) in enumerate(zip(scene.bodies, windows)):
+        if shapes.body_shape[i] < 0:
+            continue
+        v = np.asarray(body.velocity, dtype=np.float64)
+        size = _body_size(body)
+        for t0, t1 in intervals(window):
+            k = int(min(max(np.ceil(body.speed * (t1 - t0) / (SEGMENT_SWEEP * size)), 1), MAX_SEGMENTS))
+            cuts = np.linspace(t0, t1, k + 1)
+            cuts[0], cuts[-1] = t0, t1
+            for a, b in zip(cuts[:-1], cuts[1:]):
+                rows.append((i, a, b))
+    if not rows:
+        z = np.zeros((0, 4))
+        return MotionSegments(np.zeros(0, np.int32), np.zeros((0, 2)), z, z.copy())
+    body = np.array([r[0] for r in rows], dtype=np.int32)
+    span = np.array([(r[1], r[2]) for r in rows], dtype=np.float64)
+    v = np.array([scene.bodies[b].velocity for b in body], dtype=np.float64).reshape(-1, 3)
+    t_ref = np.array([scene.bodies[b].reference_time for b in body], dtype=np.float64)
+    blo, bhi = shapes.body_box_lo[body], shapes.body_box_hi[body]
+    ends = [v * (span[:, j:j + 1] - t_ref[:, None]) for j in (0, 1)]  # the pivot's motion at both ends
+    lo = np.column_stack([span[:, 0], np.minimum(blo + ends[0], blo + ends[1])])
+    hi = np.column_stack([span[:, 1], np.maximum(bhi + ends[0], bhi + ends[1])])
+    return MotionSegments(body=body, span=span, lo=lo, hi=hi)
