@@ -13,7 +13,11 @@ drift between repetitions cancels; the CPU model heads the table.
 - motion:  the same render with the spheres moving at 0.3-0.9c against at rest
   (ratio = moving time / resting time);
 - first:   the first render of a new 1.03M-triangle static scene (kernels cached)
-  against ``wp.Mesh`` build + query (ratio = ours / theirs, <= 2 is the goal).
+  against ``wp.Mesh`` build + query (ratio = ours / theirs, <= 2 is the goal);
+- cubes:   warm render of 1,000 cubes moving at up to 0.95c (a third decoupled), lit by
+  one distant light (shadow rays), against the same cubes at rest;
+- sequence: frames 0 and 10,000 of the moving spheres from one renderer (first
+  construction and both frames), per frame, against one warm frame.
 
     python3 examples/benchmarks/bench_two_level.py               # 512 x 512, 5 runs
     python3 examples/benchmarks/bench_two_level.py --runs 7 --tables static,motion
@@ -37,7 +41,7 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-TABLES = ("static", "motion", "first")
+TABLES = ("static", "motion", "first", "cubes", "sequence")
 #: (speed, direction) of the moving spheres, cycled: 0.3c to 0.9c along the image axes.
 MOTIONS = ((0.3, (1, 0, 0)), (0.5, (0, 1, 0)), (0.7, (-1, 0, 0)), (0.9, (1, 1, 0)))
 
@@ -74,6 +78,30 @@ def spheres_scene(segments: int, *, moving: bool):
     return Scene(source="<bench:spheres>", bodies=tuple(bodies), lights=(), cameras=(cam.prim_path,),
                  settings=RenderSettings(), default_camera=cam.prim_path,
                  camera_state=lambda path, frame: dataclasses.replace(cam, time=float(frame)))
+
+
+def cubes_scene(count: int, *, moving: bool, seed: int = 1):
+    """``count`` unit cubes on a jittered grid in front of the camera, random velocities
+    up to 0.95c (one third Lorentz decoupled) unless at rest, one distant light."""
+    from warp_st.core import tessellate
+    from warp_st.core.scene import Body, Light, Material, Surface
+
+    rng = np.random.default_rng(seed)
+    base = spheres_scene(8, moving=False)
+    pts, tris = tessellate.cube(0.8)
+    side = round(count ** (1.0 / 3.0))
+    bodies = []
+    for i in range(count):
+        centre = np.array([(i % side - (side - 1) / 2) * 3.2, (i // side % side - (side - 1) / 2) * 1.8,
+                           -14.0 - 2.0 * (i // side // side)]) + rng.uniform(-0.3, 0.3, 3)
+        d = rng.normal(size=3)
+        v = rng.uniform(0.1, 0.95) * d / np.linalg.norm(d) if moving else np.zeros(3)
+        path = f"/Cubes/C{i}"
+        surf = Surface(path, pts + centre, tris, Material(diffuse=tuple(rng.uniform(0.2, 0.9, 3))))
+        bodies.append(Body(path, (surf,), centre, v, -float(np.linalg.norm(centre)), (-math.inf, math.inf),
+                           bool(moving and i % 3 == 0)))
+    sun = Light("distant", (1.0, 1.0, 1.0), direction=(0.29, 0.78, 0.49), prim_path="/Sun")
+    return dataclasses.replace(base, source="<bench:cubes>", bodies=tuple(bodies), lights=(sun,))
 
 
 def pixel_directions(scene, width, height):
@@ -213,6 +241,44 @@ def table_first(args, log):
     return rows
 
 
+def table_cubes(args, log):
+    rest, moving = cubes_scene(1000, moving=False), cubes_scene(1000, moving=True)
+    timed_render(rest, args, 2)
+    timed_render(moving, args, 2)
+    rows = []
+    for threads in (1, 2):
+        a, b = [], []
+        for _ in range(args.runs):
+            b.append(timed_render(moving, args, threads)[0])
+            a.append(timed_render(rest, args, threads)[0])
+        rows.append((f"warm render, 1,000 lit cubes up to 0.95c against at rest, {threads} thr", med(b), med(a),
+                     med(b) / med(a), "moving / resting"))
+        log(f"  cubes {threads} thr: moving {1e3 * med(b):.1f} ms, resting {1e3 * med(a):.1f} ms")
+    return rows
+
+
+def table_sequence(args, log):
+    from warp_st.rendering.renderer import Renderer
+
+    scene = spheres_scene(128, moving=True)
+    timed_render(scene, args, 2)
+    rows = []
+    for threads in (1, 2):
+        seq, one = [], []
+        for _ in range(args.runs):
+            fresh = dataclasses.replace(scene)
+            t0 = time.perf_counter()
+            r = Renderer(fresh, frames=[0.0, 10000.0], width=args.width, height=args.height, threads=threads)
+            r.render(0.0)
+            r.render(10000.0)
+            seq.append((time.perf_counter() - t0) / 2)
+            one.append(timed_render(scene, args, threads)[0])
+        rows.append((f"frames 0 and 10,000 of the moving spheres, per frame, {threads} thr", med(seq), med(one),
+                     med(seq) / med(one), "per frame / one warm frame"))
+        log(f"  sequence {threads} thr: {1e3 * med(seq):.1f} ms per frame, warm frame {1e3 * med(one):.1f} ms")
+    return rows
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--runs", type=int, default=5, help="repetitions per measurement (median; default 5)")
@@ -234,7 +300,8 @@ def main(argv=None) -> int:
     rows = []
     for name in tables:
         log(f"[{name}]")
-        rows += {"static": table_static, "motion": table_motion, "first": table_first}[name](args, log)
+        rows += {"static": table_static, "motion": table_motion, "first": table_first, "cubes": table_cubes,
+                 "sequence": table_sequence}[name](args, log)
     print(f"CPU: {cpu_model()}; medians of {args.runs} runs, both sides timed back to back in each run")
     print()
     print("| measure | A ms | B ms | ratio | ratio is |")

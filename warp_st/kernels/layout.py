@@ -1,12 +1,17 @@
-"""The node layout the host build writes and the device traversal reads.
+"""The node layout the host build writes and the device traversal reads, and the
+primitive kinds a database can hold.
 
 Shared by :mod:`warp_st.accel` (which builds the trees) and :mod:`warp_st.kernels.trace`
 (which walks them); it lives with the kernels so that device code imports nothing above it.
 """
 from __future__ import annotations
 
-__all__ = ["SAH_FREE_DEPTH", "MAX_DEPTH", "WIDTH", "LINK_SHIFT", "LINK_MASK", "MAX_WIDE_DEPTH"]
+__all__ = ["PRIMITIVES", "SAH_FREE_DEPTH", "MAX_DEPTH", "WIDTH", "LINK_SHIFT", "LINK_MASK", "MAX_WIDE_DEPTH"]
 
+#: What the geometry of a database holds: rigid bodies as instances (two levels,
+#: ``trace_rigid.py``; float32, the renderer's default there), or their 4D extrusion
+#: into prisms or tetrahedra (``trace.py``; the exact oracle and the float64 path).
+PRIMITIVES = ("rigid", "prism", "tet")
 #: Below this depth the SAH builder splits freely; deeper nodes are halved, so the
 #: depth stays below SAH_FREE_DEPTH + log2 N (the benchmark trees are 26-30 deep).
 SAH_FREE_DEPTH = 32

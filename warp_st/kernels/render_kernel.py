@@ -8,18 +8,16 @@ import functools
 
 import warp as wp
 
+from warp_st.kernels.layout import PRIMITIVES
 from warp_st.kernels.probe import make_probe
 from warp_st.kernels.shade import make_shade
 from warp_st.kernels.spectrum import make_spectrum
 from warp_st.kernels.trace import make_trace
 from warp_st.kernels.trace_rigid import make_trace_rigid
 
-__all__ = ["get_kernels", "Kernels", "PRIMITIVES"]
+__all__ = ["get_kernels", "Kernels"]
 
 
-#: What the geometry of a database holds: prisms, tetrahedra (the 4D extrusion,
-#: ``trace.py``) or rigid bodies as instances (two levels, ``trace_rigid.py``, float32).
-PRIMITIVES = ("rigid", "prism", "tet")
 
 
 class Kernels:

@@ -24,6 +24,7 @@ from warp_st.core.conventions import DEFAULT_RESOLUTION, LightSpeed, Precision
 from warp_st.core.limits import resolve_max_memory
 from warp_st.core.native_output import captured_output
 from warp_st.core.scene import CameraState, Scene, SceneError
+from warp_st.kernels.layout import PRIMITIVES
 from warp_st.output.film import Image, quantize_time
 from warp_st.rendering import database_cache
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
@@ -33,10 +34,6 @@ from warp_st.spacetime.visibility import union, visibility_windows
 
 __all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION", "PRIMITIVES"]
 
-#: What the database holds: rigid bodies as instances (two levels, the default in
-#: float32), or their 4D extrusion into prisms or tetrahedra (build_database; the
-#: exact oracle and the float64 path).
-PRIMITIVES = ("rigid", "prism", "tet")
 
 #: Mirror reflections followed when nothing asks otherwise (issue: light transport).
 DEFAULT_MAX_DEPTH = 4
@@ -487,8 +484,8 @@ def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fin
     """
     from warp_st.accel.bvh import build_bvh
 
-    if primitive not in PRIMITIVES:
-        raise ValueError(f"primitive must be one of {PRIMITIVES}, got {primitive!r}")
+    if primitive not in ("prism", "tet"):
+        raise ValueError(f"primitive must be prism or tet, got {primitive!r}")
     mesh = dataclasses.replace(extrude_scene(scene, windows, fine=fine), primitive=primitive)
     lo, hi = mesh.prim_boxes() if mesh.prim_count else (np.zeros((0, 4)), np.zeros((0, 4)))
     bvh = build_bvh(lo, hi, primitive=primitive)

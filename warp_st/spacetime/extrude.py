@@ -157,8 +157,11 @@ def segment_sweep(body: Body) -> float:
 def longest_edges(pts: np.ndarray, tris: np.ndarray) -> np.ndarray:
     """Length of each triangle's longest edge, (T,)."""
     a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
-    return np.sqrt(np.max([((b - a) ** 2).sum(1), ((c - a) ** 2).sum(1), ((c - b) ** 2).sum(1)], axis=0,
-                          initial=0.0))
+
+    def squared(d):  # summed as ((x^2 + y^2) + z^2), the order a row sum of three takes
+        return d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
+
+    return np.sqrt(np.maximum(np.maximum(squared(b - a), squared(c - a)), squared(c - b)))
 
 
 def _body_size(body: Body) -> float:
