@@ -207,8 +207,8 @@ def table_static(args, log):
     return rows
 
 
-def table_motion(args, log):
-    rest, moving = spheres_scene(128, moving=False), spheres_scene(128, moving=True)
+def moving_against_resting(label, rest, moving, args, log):
+    """Rows: warm renders of ``moving`` against ``rest``, 1 and 2 threads, back to back."""
     timed_render(rest, args, 2)
     timed_render(moving, args, 2)
     rows = []
@@ -217,10 +217,15 @@ def table_motion(args, log):
         for _ in range(args.runs):
             b.append(timed_render(moving, args, threads)[0])
             a.append(timed_render(rest, args, threads)[0])
-        rows.append((f"warm render, 16 spheres at 0.3-0.9c against at rest, {threads} thr", med(b), med(a),
-                     med(b) / med(a), "moving / resting"))
-        log(f"  motion {threads} thr: moving {1e3 * med(b):.1f} ms, resting {1e3 * med(a):.1f} ms")
+        rows.append((f"warm render, {label} against at rest, {threads} thr", med(b), med(a), med(b) / med(a),
+                     "moving / resting"))
+        log(f"  {label}, {threads} thr: moving {1e3 * med(b):.1f} ms, resting {1e3 * med(a):.1f} ms")
     return rows
+
+
+def table_motion(args, log):
+    return moving_against_resting("16 spheres at 0.3-0.9c", spheres_scene(128, moving=False),
+                                  spheres_scene(128, moving=True), args, log)
 
 
 def table_first(args, log):
@@ -242,19 +247,8 @@ def table_first(args, log):
 
 
 def table_cubes(args, log):
-    rest, moving = cubes_scene(1000, moving=False), cubes_scene(1000, moving=True)
-    timed_render(rest, args, 2)
-    timed_render(moving, args, 2)
-    rows = []
-    for threads in (1, 2):
-        a, b = [], []
-        for _ in range(args.runs):
-            b.append(timed_render(moving, args, threads)[0])
-            a.append(timed_render(rest, args, threads)[0])
-        rows.append((f"warm render, 1,000 lit cubes up to 0.95c against at rest, {threads} thr", med(b), med(a),
-                     med(b) / med(a), "moving / resting"))
-        log(f"  cubes {threads} thr: moving {1e3 * med(b):.1f} ms, resting {1e3 * med(a):.1f} ms")
-    return rows
+    return moving_against_resting("1,000 lit cubes up to 0.95c", cubes_scene(1000, moving=False),
+                                  cubes_scene(1000, moving=True), args, log)
 
 
 def table_sequence(args, log):
