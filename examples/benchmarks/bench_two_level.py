@@ -10,6 +10,8 @@ drift between repetitions cancels; the CPU model heads the table.
   ~254k triangles), unlit, against ``wp.mesh_query_ray`` closest hits of the same
   primary rays over one ``wp.Mesh`` of all triangles (ratio = wp.Mesh time / ours,
   >= 1 means ours is faster);
+- trace:   closest hits only (the ``cast_rays`` probe through the two levels, no
+  shading or film) against ``wp.Mesh`` on the same rays (ratio = wp.Mesh time / ours);
 - motion:  the same render with the spheres moving at 0.3-0.9c against at rest
   (ratio = moving time / resting time);
 - first:   the first render of a new 1.03M-triangle static scene (kernels cached)
@@ -41,7 +43,7 @@ ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-TABLES = ("static", "motion", "first", "cubes", "sequence")
+TABLES = ("static", "trace", "motion", "first", "cubes", "sequence")
 #: (speed, direction) of the moving spheres, cycled: 0.3c to 0.9c along the image axes.
 MOTIONS = ((0.3, (1, 0, 0)), (0.5, (0, 1, 0)), (0.7, (-1, 0, 0)), (0.9, (1, 1, 0)))
 
@@ -223,6 +225,49 @@ def moving_against_resting(label, rest, moving, args, log):
     return rows
 
 
+def table_trace(args, log):
+    import warp as wp
+
+    from warp_st.rendering.renderer import Renderer
+
+    scene = spheres_scene(128, moving=False)
+    dirs = pixel_directions(scene, args.width, args.height)
+    mesh = MeshQueries(scene, dirs)
+    r = Renderer(scene, frames=[0.0], width=args.width, height=args.height)
+    r.render(0.0)
+    geo = r.database.geometry_for("float32", (0.0, 0.0, 0.0, 0.0), None)  # the frame's geometry, cached
+    n = len(dirs)
+    outs = [wp.zeros(n, dtype=wp.vec4, device="cpu"), wp.zeros(n, dtype=wp.int32, device="cpu"),
+            wp.zeros(n, dtype=wp.float32, device="cpu"), wp.zeros(n, dtype=wp.int32, device="cpu")]
+
+    def ours(threads):
+        def launch(tile):
+            a, b = tile
+            wp.launch(r.kernels.cast_rays, dim=b - a, inputs=[geo, outs[0][a:b], mesh.dirs[a:b], 1, outs[1][a:b],
+                                                              outs[2][a:b], outs[3][a:b]], device="cpu")
+
+        t0 = time.perf_counter()
+        if threads == 1:
+            for tile in mesh.tiles:
+                launch(tile)
+        else:
+            list(mesh.pool.map(launch, mesh.tiles))
+        return time.perf_counter() - t0
+
+    ours(2)
+    rows = []
+    for threads in (1, 2):
+        a, b = [], []
+        for _ in range(args.runs):
+            a.append(ours(threads))
+            b.append(mesh.query(threads))
+        agree = np.array_equal(outs[1].numpy() >= 0, mesh.face.numpy() >= 0)
+        rows.append((f"closest hit only, 16 static spheres (two levels against one wp.Mesh), {threads} thr", med(a),
+                     med(b), med(b) / med(a), "wp.Mesh / ours" + ("" if agree else " (hits DISAGREE)")))
+        log(f"  trace {threads} thr: ours {1e3 * med(a):.1f} ms, wp.Mesh {1e3 * med(b):.1f} ms")
+    return rows
+
+
 def table_motion(args, log):
     return moving_against_resting("16 spheres at 0.3-0.9c", spheres_scene(128, moving=False),
                                   spheres_scene(128, moving=True), args, log)
@@ -294,8 +339,8 @@ def main(argv=None) -> int:
     rows = []
     for name in tables:
         log(f"[{name}]")
-        rows += {"static": table_static, "motion": table_motion, "first": table_first, "cubes": table_cubes,
-                 "sequence": table_sequence}[name](args, log)
+        rows += {"static": table_static, "trace": table_trace, "motion": table_motion, "first": table_first,
+                 "cubes": table_cubes, "sequence": table_sequence}[name](args, log)
     print(f"CPU: {cpu_model()}; medians of {args.runs} runs, both sides timed back to back in each run")
     print()
     print("| measure | A ms | B ms | ratio | ratio is |")
