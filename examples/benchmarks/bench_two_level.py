@@ -159,6 +159,10 @@ class MeshQueries:
             wp.launch(self.kernel, dim=b - a, inputs=[mid, self.origins[a:b], self.dirs[a:b], self.face[a:b],
                                                         self.t[a:b]], device="cpu")
 
+        return self.run(launch, threads)
+
+    def run(self, launch, threads: int) -> float:
+        """Seconds to call ``launch(tile)`` on every tile, in turn or from the 2-thread pool."""
         t0 = time.perf_counter()
         if threads == 1:
             for tile in self.tiles:
@@ -246,13 +250,7 @@ def table_trace(args, log):
             wp.launch(r.kernels.cast_rays, dim=b - a, inputs=[geo, outs[0][a:b], mesh.dirs[a:b], 1, outs[1][a:b],
                                                               outs[2][a:b], outs[3][a:b]], device="cpu")
 
-        t0 = time.perf_counter()
-        if threads == 1:
-            for tile in mesh.tiles:
-                launch(tile)
-        else:
-            list(mesh.pool.map(launch, mesh.tiles))
-        return time.perf_counter() - t0
+        return mesh.run(launch, threads)
 
     ours(2)
     rows = []
