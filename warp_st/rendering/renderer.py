@@ -347,7 +347,8 @@ class Renderer:
             "primitive": self.primitive,
             "triangles": s.triangles,
             "motion_segments": s.segments,
-            "time_segments": "per triangle" if self.fine_segments else "per body (memory)",
+            "time_segments": ("motion segments (rigid)" if self.primitive == "rigid"
+                              else "per triangle" if self.fine_segments else "per body (memory)"),
             "bvh_nodes": s.bvh_nodes,
             "extrude_seconds": round(s.extrude_seconds, 4),
             "bvh_seconds": round(s.bvh_seconds, 4),
