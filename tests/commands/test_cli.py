@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helpers import moving_body_stage
 
 import warp_st
 from warp_st.commands.cli import expand_output, format_frame, has_frame_pattern, main, parse_frames
@@ -29,42 +30,8 @@ from warp_st.output.film import Image
 
 REPO = Path(__file__).resolve().parents[2]
 
-TINY_SCENE = """#usda 1.0
-(
-    upAxis = "Y"
-    startTimeCode = 0
-    endTimeCode = 2
-)
-
-def Xform "World"
-{
-    def Camera "Cam"
-    {
-        double3 xformOp:translate = (0, 0, 10)
-        uniform token[] xformOpOrder = ["xformOp:translate"]
-        float focalLength = 35
-        float horizontalAperture = 36
-        float verticalAperture = 27
-    }
-
-    def Xform "Mover" (
-        prepend apiSchemas = ["SpacetimeBodyAPI"]
-    )
-    {
-        custom double4 spacetime:fourVelocity = (1, 0.5, 0, 0)
-
-        def Cube "Box"
-        {
-            double size = 2
-        }
-    }
-
-    def DistantLight "Sun"
-    {
-        float inputs:intensity = 1
-    }
-}
-"""
+TINY_SCENE = moving_body_stage('def Cube "Box"\n        {\n            double size = 2\n        }', end_time=2,
+                               vertical_aperture=27)
 
 BAD_SCENE = """#usda 1.0
 (

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from cli_helpers import child_env, no_temp_files, one_line, resume_renders_the_rest, signal_after
+from cli_helpers import child_env, moving_body_stage, no_temp_files, one_line, resume_renders_the_rest, signal_after
 
 import warp_st
 from warp_st.commands import cli
@@ -46,47 +46,14 @@ from warp_st.rendering.renderer import Renderer
 
 ROOT = Path(__file__).resolve().parents[2]
 
-SCENE = """#usda 1.0
-(
-    upAxis = "Y"
-    startTimeCode = 0
-    endTimeCode = 40
-)
-
-def Xform "World"
-{
-    def Camera "Cam"
-    {
-        double3 xformOp:translate = (0, 0, 10)
-        uniform token[] xformOpOrder = ["xformOp:translate"]
-        float focalLength = 35
-        float horizontalAperture = 36
-    }
-
-    def Xform "Mover" (
-        prepend apiSchemas = ["SpacetimeBodyAPI"]
-    )
-    {
-        custom double4 spacetime:fourVelocity = (1, 0.5, 0, 0)
-        def Sphere "Ball"
-        {
-            double radius = 1
-        }
-    }
-
+SCENE = moving_body_stage('def Sphere "Ball"\n        {\n            double radius = 1\n        }', end_time=40, extra="""
     def Cube "Block"
     {
         double size = 1.5
         double3 xformOp:translate = (-2, -1, -2)
         uniform token[] xformOpOrder = ["xformOp:translate"]
     }
-
-    def DistantLight "Sun"
-    {
-        float inputs:intensity = 1
-    }
-}
-"""
+""")
 
 
 @pytest.fixture
