@@ -368,6 +368,7 @@ class Renderer:
                 "shutter": repr(self.shutter),
                 "dopplerColor": str(self.doppler_color).lower(),
                 "searchlight": str(self.searchlight).lower(),
+                **self.scene.header(),  # metersPerUnit, timeCodesPerSecond
             },
         )
 
