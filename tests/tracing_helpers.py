@@ -6,7 +6,7 @@ from warp_st.core import tessellate
 from warp_st.core.scene import Body, Material, RenderSettings, Scene, Surface
 from warp_st.kernels import get_kernels
 from warp_st.rendering.device import StaticArrays, make_geometry
-from warp_st.rendering.renderer import _warp, build_database
+from warp_st.rendering.renderer import build_database, init_warp
 
 
 def sphere_body(path, centre, radius, velocity=(0, 0, 0), *, segments=24, decoupled=False, lifetime=(-np.inf, np.inf), t_ref=0.0):
@@ -37,7 +37,7 @@ class Database:
     """A scene extruded over fixed windows, uploaded for one render origin."""
 
     def __init__(self, scene, windows, *, precision="float32", origin=(0, 0, 0, 0), primitive="tet"):
-        _warp()
+        init_warp()
         self.k = get_kernels(precision, primitive)
         self.np_scalar = np.float32 if precision == "float32" else np.float64
         self.mesh, self.bvh = build_database(scene, windows, primitive)

@@ -467,14 +467,14 @@ def test_time_segments_fall_back_to_the_coarser_rule_when_memory_is_short():
     when that database would not fit under max_memory but the coarser per-body rule
     does, the renderer uses the coarser one instead of refusing, and the image is the
     same (both are exact extrusions of the same surfaces: only box tightness differs)."""
-    from warp_st.bench import bench_camera, sphere_grid_scene
+    from warp_st.testing import rest_camera, sphere_grid_scene
     from warp_st.rendering.budget import check_resources
     from warp_st.spacetime.visibility import visibility_windows
 
     scene = sphere_grid_scene(96, 2)
     fine_r = Renderer(scene, frames=[0.0], width=48, height=27)
     assert fine_r.fine_segments
-    cams = [bench_camera()]
+    cams = [rest_camera()]
     windows = visibility_windows(scene, cams, infinite=False, max_depth=fine_r.max_depth)
     sizes = {fine: check_resources(scene, windows, width=48, height=27, max_depth=fine_r.max_depth, fine=fine)
              for fine in (True, False)}

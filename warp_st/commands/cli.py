@@ -60,12 +60,6 @@ def build_parser() -> argparse.ArgumentParser:
     inspect.add_arguments(i)
     v = sub.add_parser("validate", help="load a scene and report what it contains", prog=f"{PROG} validate")
     validate.add_arguments(v)
-
-    from warp_st.bench import add_arguments as _bench_arguments  # no warp / pxr import until it runs
-
-    b = sub.add_parser("bench", help="measure speed against error; write docs/performance.md and plots",
-                       prog=f"{PROG} bench")
-    _bench_arguments(b)
     return parser
 
 
@@ -95,10 +89,6 @@ def _main(argv: list[str]) -> int:
             from warp_st.commands import inspect
 
             return inspect.run(args)
-        if args.command == "bench":
-            from warp_st import bench
-
-            return bench.run(bench._finish_args(args, parser.error))
         from warp_st.commands import validate
 
         return validate.run(args)

@@ -67,7 +67,8 @@ class MemoryRefusal(SceneError):
     """A render whose estimated memory exceeds the limit (bad input: exit 2)."""
 
 
-def count_database(scene: Scene, windows, *, fine: bool = True) -> tuple[int, int, list[int]]:
+def count_database(scene: Scene, windows, *, fine: bool = True, fraction: float | None = None
+                   ) -> tuple[int, int, list[int]]:
     """(tetrahedra, vertices, tetrahedra per body) the extrusion of ``scene`` over ``windows`` makes.
 
     Exactly what :func:`warp_st.spacetime.extrude.extrude_scene` allocates (3 tetrahedra per
@@ -84,7 +85,7 @@ def count_database(scene: Scene, windows, *, fine: bool = True) -> tuple[int, in
                     scene.source, body.prim_path, None,
                     f"its visible time window {_window_text(window)} is not finite (positions, speeds or times too large)",
                 )
-            segments = sum(len(body_slices(body, part, fine=fine)) - 1 for part in parts)
+            segments = sum(len(body_slices(body, part, fine=fine, fraction=fraction)) - 1 for part in parts)
             for surf in body.surfaces:
                 n_tri = len(surface_triangles(surf))
                 if n_tri:
@@ -123,10 +124,10 @@ def _check_windows(scene: Scene, windows, max_depth: int) -> None:
 
 
 def check_resources(scene: Scene, windows, *, width: int, height: int, samples: int = 1, max_depth: int = 0,
-                    max_memory: int | None = None, fine: bool = True) -> int:
+                    max_memory: int | None = None, fine: bool = True, fraction: float | None = None) -> int:
     """Refuse (SceneError; MemoryRefusal over ``max_memory``) a render that would exceed
-    ``max_memory`` or the kernels' ranges. ``fine``: the time-segment rule
-    (``extrude.body_slices``). Called after the visibility windows and before the
+    ``max_memory`` or the kernels' ranges. ``fine`` and ``fraction``: the time-segment
+    rule (``extrude.body_slices``). Called after the visibility windows and before the
     extrusion. Returns the estimate.
     """
     src = scene.source
@@ -138,7 +139,7 @@ def check_resources(scene: Scene, windows, *, width: int, height: int, samples: 
     if pixels > MAX_PIXELS:
         raise SceneError.at(src, None, "resolution", f"{width} x {height} is more than {MAX_PIXELS} pixels")
     _check_windows(scene, windows, max_depth)
-    tets, verts, per_body = count_database(scene, windows, fine=fine)
+    tets, verts, per_body = count_database(scene, windows, fine=fine, fraction=fraction)
     estimate = estimate_bytes(tets, verts, pixels)
     if max_memory is not None and estimate > max_memory:
         biggest = ""

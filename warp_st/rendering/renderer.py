@@ -27,7 +27,8 @@ from warp_st.spacetime.adaptive import adapt_sphere_tessellation
 from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
 from warp_st.spacetime.visibility import union, visibility_windows
 
-__all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION", "PRIMITIVES"]
+__all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION", "PRIMITIVES",
+           "TILE_PIXELS", "init_warp"]
 
 #: Primitive kinds of the 4D database (see build_database).
 PRIMITIVES = ("prism", "tet")
@@ -39,20 +40,22 @@ DEFAULT_MAX_DEPTH = 4
 #: overhead (~9 us) is negligible. 4,096 against 8,192, five alternations (README,
 #: Performance): the aberration scene's 1 -> 2 core speed-up 1.64-1.86x (median
 #: 1.79x) against 1.67-1.74x.
-_TILE_PIXELS = 4096
+TILE_PIXELS = 4096
 
 
-def _warp():
+def init_warp():
+    """The ``warp`` module, configured (errors only, no backward pass, ``WARP_CACHE_PATH`` as
+    the kernel cache) and initialised once without the CPU-only driver notice."""
     import warp as wp
 
-    if not getattr(_warp, "_ready", False):
+    if not getattr(init_warp, "_ready", False):
         wp.config.log_level = 40  # errors only: no banner or per-module load lines
         wp.config.enable_backward = False
         cache = os.environ.get("WARP_CACHE_PATH")
         if cache:
             wp.config.kernel_cache_dir = cache
         _quiet_init(wp)
-        _warp._ready = True
+        init_warp._ready = True
     return wp
 
 
@@ -113,6 +116,15 @@ class Renderer:
     Keyword options override the stage's render settings; None keeps them.
     primitive: "prism" (default, one comoving triangle test per prism) or "tet" (three
         tetrahedra per prism, the general path); both give the same images.
+
+    Two options exist to measure the database's rules (examples/benchmarks), not to
+    render: the default None keeps the renderer's own rules.
+    sweep_fraction: time segments in which each body sweeps this fraction of its own
+        size, instead of the default rule (``extrude.segment_sweep``, with the coarser
+        fallback when memory is short).
+    adjust_windows: ``adjust_windows(scene, windows) -> windows``, called with the
+        per-body visibility windows of the (re-tessellated) scene; the memory check and
+        the extrusion use what it returns. A window cut short loses what the frames see.
     """
 
     def __init__(
@@ -133,8 +145,14 @@ class Renderer:
         threads: int | None = None,
         max_memory: int | str | None = None,
         primitive: str = "prism",
+        sweep_fraction: float | None = None,
+        adjust_windows=None,
     ):
         src = scene.source
+        if sweep_fraction is not None and not (math.isfinite(sweep_fraction) and sweep_fraction > 0.0):
+            raise ValueError(f"sweep_fraction must be finite and > 0, got {sweep_fraction!r}")
+        self.sweep_fraction = sweep_fraction
+        self.adjust_windows = adjust_windows
         if primitive not in PRIMITIVES:
             raise SceneError.at(src, None, "primitive", f"must be one of {', '.join(PRIMITIVES)}, got {primitive!r}")
         self.primitive = primitive
@@ -206,7 +224,7 @@ class Renderer:
         from warp_st.kernels import get_kernels
         from warp_st.rendering.device import StaticArrays
 
-        wp = _warp()
+        wp = init_warp()
         t0 = time.perf_counter()
         modes = {self._frame_light_speed(c) for c in cams}
         windows = None
@@ -221,18 +239,21 @@ class Renderer:
             w = visibility_windows(scene, cams, infinite=mode == LightSpeed.INFINITE, max_depth=self.max_depth,
                                    shutter=shutter)
             windows = w if windows is None else [union(a, b) for a, b in zip(windows, w)]
+        if self.adjust_windows is not None:
+            windows = list(self.adjust_windows(scene, windows))
         # Refuse before allocating: the tetrahedron count is known from the windows. Time
         # segments follow finely tessellated bodies' triangles unless that does not fit;
         # then they fall back to the coarser rule (faster to build, slower to trace).
         limits = dict(width=self.width, height=self.height, samples=self.samples, max_depth=self.max_depth,
-                      max_memory=self.max_memory)
+                      max_memory=self.max_memory, fraction=self.sweep_fraction)
         try:
             self.memory_estimate = check_resources(scene, windows, **limits)
             self.fine_segments = True
         except MemoryRefusal:
             self.memory_estimate = check_resources(scene, windows, fine=False, **limits)
             self.fine_segments = False
-        mesh, bvh = build_database(scene, windows, self.primitive, fine=self.fine_segments)
+        mesh, bvh = build_database(scene, windows, self.primitive, fine=self.fine_segments,
+                                   fraction=self.sweep_fraction)
         t2 = time.perf_counter()
         t1 = t2 - bvh.build_seconds
         tc = time.perf_counter()
@@ -255,7 +276,8 @@ class Renderer:
         return {
             "tetrahedra": s.tetrahedra,
             "primitive": self.primitive,
-            "time_segments": "per triangle" if self.fine_segments else "per body (memory)",
+            "time_segments": (f"sweep {self.sweep_fraction:g} x body size" if self.sweep_fraction is not None
+                              else "per triangle" if self.fine_segments else "per body (memory)"),
             "bvh_nodes": s.bvh_nodes,
             "extrude_seconds": round(s.extrude_seconds, 4),
             "bvh_seconds": round(s.bvh_seconds, 4),
@@ -278,7 +300,7 @@ class Renderer:
         from warp_st.rendering.camera import make_camera
         from warp_st.rendering.device import make_geometry, make_shading
 
-        wp = _warp()
+        wp = init_warp()
         frame = self.frames[0] if frame is None else self._frame_value(frame)
         if frame not in self._cameras:
             # A frame outside the prepared set: widen the database to cover it.
@@ -309,7 +331,7 @@ class Renderer:
         film.visits = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
         film.overflow = wp.zeros(1, dtype=wp.int32, device="cpu")
 
-        tiles = [(o, min(_TILE_PIXELS, n_pix - o)) for o in range(0, n_pix, _TILE_PIXELS)]
+        tiles = [(o, min(TILE_PIXELS, n_pix - o)) for o in range(0, n_pix, TILE_PIXELS)]
 
         def launch(tile):
             wp.launch(k.render_pixels, dim=tile[1], inputs=[geo, shd, kcam, film, tile[0]], device="cpu")
@@ -373,16 +395,16 @@ class Renderer:
         )
 
 
-def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fine: bool = True
-                   ) -> tuple[SpacetimeMesh, FlatBVH]:
+def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fine: bool = True,
+                   fraction: float | None = None) -> tuple[SpacetimeMesh, FlatBVH]:
     """Extrude ``scene`` over per-body time ``windows`` and build the 4D BVH.
 
     ``primitive``: what the BVH's leaves hold and the kernels intersect: "prism" (one
     comoving triangle test per extruded triangle and segment; every body moves
     uniformly, so this is exact) or "tet" (three tetrahedra per prism, the general
     path). The returned mesh stores that primitive array in BVH leaf order (a leaf is
-    a contiguous range), so primitive indices refer to that order. ``fine``: the
-    time-segment rule (``extrude.body_slices``).
+    a contiguous range), so primitive indices refer to that order. ``fine`` and
+    ``fraction``: the time-segment rule (``extrude.body_slices``).
     """
     import dataclasses
 
@@ -390,7 +412,7 @@ def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fin
 
     if primitive not in PRIMITIVES:
         raise ValueError(f"primitive must be one of {PRIMITIVES}, got {primitive!r}")
-    mesh = dataclasses.replace(extrude_scene(scene, windows, fine=fine), primitive=primitive)
+    mesh = dataclasses.replace(extrude_scene(scene, windows, fine=fine, fraction=fraction), primitive=primitive)
     lo, hi = mesh.prim_boxes() if mesh.prim_count else (np.zeros((0, 4)), np.zeros((0, 4)))
     bvh = build_bvh(lo, hi, primitive=primitive)
     if mesh.prim_count == 0:

@@ -155,13 +155,15 @@ def _body_size(body: Body) -> float:
     return max(extent, 1e-6)
 
 
-def extrude_scene(scene: Scene, windows: list, *, fine: bool = True) -> SpacetimeMesh:
+def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: float | None = None) -> SpacetimeMesh:
     """Extrude every body of ``scene`` over its visible time window.
 
     windows[i] is the lab-time window of body i that the frames can see (already
     intersected with its lifetime): an interval (lo, hi), a tuple of disjoint
     intervals (each extruded on its own), or None when the body is never visible.
     fine: time segments by ``segment_sweep`` (default) or by SWEEP_FRACTION of the body.
+    fraction: when given, time segments in which each body sweeps ``fraction`` x its
+    size, whatever ``fine`` says (``body_slices``; for measuring the rule).
     """
     materials: list = []
     mat_index: dict = {}
@@ -176,7 +178,7 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True) -> Spacetim
             continue
         A = contraction_matrix(body.velocity, body.decoupled)
         A_inv_t = np.linalg.inv(A).T
-        part_slices = [body_slices(body, part, fine=fine) for part in parts]  # each interval on its own
+        part_slices = [body_slices(body, part, fine=fine, fraction=fraction) for part in parts]  # each interval on its own
         for surf in body.surfaces:
             tris = surface_triangles(surf)
             if len(tris) == 0:
