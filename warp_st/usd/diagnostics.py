@@ -19,7 +19,7 @@ from __future__ import annotations
 import os
 import re
 
-from pxr import Usd, UsdGeom, UsdLux
+from pxr import Usd, UsdGeom, UsdLux, UsdSkel
 
 from warp_st.core.scene import Diagnostic, SceneError
 from warp_st.usd.attributes import MASKED
@@ -152,7 +152,8 @@ _WHY = {
     "shutter:close": "the camera shutter is not used (spacetime:shutter on the render settings is)",
     "clippingPlanes": "clipping planes are not applied",
 }
-_WHY_PREFIX = {"shaping:": "light shaping is not supported", "shadow:": "shadow controls are not supported",
+_WHY_PREFIX = {"inputs:shaping:": "light shaping is not supported",
+               "inputs:shadow:": "shadow controls are not supported (every light casts sharp shadows)",
                "exposure:": "camera exposure is not applied"}
 #: Relationships whose targets change the picture but are not honoured.
 _RELATIONSHIP_WHY = {"light:filters": "light filters are not supported",
@@ -233,7 +234,7 @@ def unknown_type(prim) -> str | None:
         return f"its type {kind!r} is not known to USD here (no schema is loaded for it); not rendered"
     if prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
         return None  # the light reader says which lights it supports
-    if prim.IsA(UsdGeom.Boundable) and not (prim.IsA(UsdGeom.Gprim) or prim.IsA(UsdGeom.PointInstancer)) \
-            and kind != "Skeleton":
+    drawn = (UsdGeom.Gprim, UsdGeom.PointInstancer, UsdSkel.Root, UsdSkel.Skeleton)  # skinning: a warning of its own
+    if prim.IsA(UsdGeom.Boundable) and not any(prim.IsA(t) for t in drawn):
         return f"{kind} prims are not rendered; skipped"
     return None
