@@ -144,19 +144,23 @@ def ndc(cam, points, width=640, height=360):
     return x, y
 
 
-FLOOR = HEADER.format(up="Y") + 'def Plane "Floor"\n{\n    double width = 6\n    double length = 3\n    token axis = "Y"\n}\n'
+FLOOR = 'def Plane "Floor"\n{\n    double width = 6\n    double length = 3\n    token axis = "Y"\n}\n'
+#: A box on a ground plane, 0.5 / 100 as high as wide (under the 1 % of a flat stage), and
+#: a train 4 / 100 as high as long (over it).
+GROUND = FLOOR.replace("6", "100").replace("3", "100") + 'def Cube "Box"\n{\n    double size = 0.5\n}\n'
+TRAIN = 'def Cube "Train"\n{\n    float3 xformOp:scale = (50, 2, 1)\n    uniform token[] xformOpOrder = ["xformOp:scale"]\n}\n'
 
 
 @pytest.mark.parametrize("name, view", [("chess_piece", (0, 0, -1)), ("vehicle_z_up", (0, 1, 0)),
-                                        ("floor", (0, -1, 0))])
+                                        ("floor", (0, -1, 0)), ("ground", (0, -1, 0)), ("train", (0, 0, -1))])
 def test_default_camera_frames_the_bounds(tmp_path, name, view):
     """At rest, at the rendered time code, looking at the bounds' centre along -Z (Y up),
-    +Y (Z up) or down on a floor; every corner of USD's bounds inside the image, the front
-    face touching its edge (tolerance: float32 extents); usdrecord's vertical field of view
-    at the default 16:9 resolution."""
-    if name == "floor":
-        path = tmp_path / "floor.usda"
-        path.write_text(FLOOR)
+    +Y (Z up) or down on flat bounds (under 1 % as high as wide); every corner of USD's
+    bounds inside the image, the front face touching its edge (tolerance: float32
+    extents); usdrecord's vertical field of view at the default 16:9 resolution."""
+    if name in ("floor", "ground", "train"):
+        path = tmp_path / f"{name}.usda"
+        path.write_text(HEADER.format(up="Y") + {"floor": FLOOR, "ground": GROUND, "train": TRAIN}[name])
     else:
         path = CORPUS[name]().write(tmp_path)
     lo, hi = usd_bounds(path)

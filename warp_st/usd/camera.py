@@ -21,6 +21,9 @@ __all__ = ["CameraEvaluator", "Framing", "frame_bounds", "lab_from_camera"]
 #: usdrecord's free camera is a default GfCamera: a 50 mm lens, 15.2908 mm vertical aperture.
 FRAMING_FOCAL_LENGTH = 50.0
 FRAMING_VERTICAL_APERTURE = 15.2908
+#: Bounds whose extent along the up axis is at most this fraction of their width or depth
+#: are framed from above (see :func:`frame_bounds`).
+FLAT_FRACTION = 0.01
 
 
 @dataclass(frozen=True)
@@ -54,12 +57,14 @@ def frame_bounds(lo, hi, up_axis: str, aspect: float) -> Framing:
     """usdrecord's free camera for the world bounds ``lo``..``hi``: a default (50 mm) lens
     looking along -Z (upAxis Y) or +Y (upAxis Z, +Z up) at the bounds' centre, backed off
     until the face of the bounds towards it fills the frame in both directions (the
-    horizontal aperture gives ``aspect`` = width / height). Bounds with no extent along the
-    up axis (a floor) are seen from above instead, so that they are not seen edge-on."""
+    horizontal aperture gives ``aspect`` = width / height). Flat bounds, less than
+    FLAT_FRACTION as high as they are wide or deep (a floor, decals, an asset on a large
+    ground plane), are seen from above instead: edge-on they would show nothing."""
     lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
     centre, size = 0.5 * (lo + hi), hi - lo
     up = 2 if up_axis == "Z" else 1
-    if size[up] > 0.0 or not size.any():
+    across = max(size[i] for i in range(3) if i != up)
+    if size[up] > FLAT_FRACTION * across or not size.any():
         # columns: camera +X, +Y, +Z in the lab; the camera looks down its -Z
         rotation = np.eye(3) if up == 1 else np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
     else:  # look down the up axis, the image's top towards the depth axis

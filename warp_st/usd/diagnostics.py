@@ -24,7 +24,7 @@ from pxr import Usd, UsdGeom, UsdLux, UsdSkel
 from warp_st.core.scene import Diagnostic, SceneError
 from warp_st.usd.attributes import MASKED
 
-__all__ = ["Notes", "composition", "check_prim", "unknown_type", "same_value"]
+__all__ = ["Notes", "composition", "check_prim", "samples_listable", "unknown_type", "same_value"]
 
 
 class Notes:
@@ -33,6 +33,8 @@ class Notes:
     def __init__(self, file: str):
         self.file = file
         self._items: dict[tuple, Diagnostic] = {}
+        #: False on a stage whose time samples USD cannot list (see :func:`samples_listable`)
+        self.count_samples = True
 
     def warn(self, prim, attribute: str | None, message: str, code: str) -> None:
         self._add("warning", prim, attribute, message, code)
@@ -204,12 +206,14 @@ def check_prim(notes: Notes, prim, time, *, attributes: bool = True, samples: bo
         name = attr.GetName()
         if masked and (path, name) in masked:
             continue
-        if samples and attr.GetNumTimeSamples() > 0:
-            times = attr.GetTimeSamples()
+        if samples and attr.ValueMightBeTimeVarying():  # one sample is a constant: nothing is lost
             at = "its default value" if name.startswith("spacetime:") else f"its value at time code {time.GetValue():g}"
-            count = f"{len(times)} time sample{'s' if len(times) != 1 else ''}"
-            notes.warn(path, name, f"has {count} ({times[0]:g} to {times[-1]:g}); USD animation is not rendered "
-                                   f"yet: every frame uses {at}", "TimeSampled")
+            count = "time samples"
+            if notes.count_samples:
+                times = attr.GetTimeSamples()
+                count = f"{len(times)} time samples ({times[0]:g} to {times[-1]:g})"
+            notes.warn(path, name, f"has {count}; USD animation is not rendered yet: every frame uses {at}",
+                       "TimeSampled")
         if (name not in schema or name in honoured or name.startswith(("xformOp:", "spacetime:"))):
             continue
         value = attr.Get(time)
@@ -223,6 +227,12 @@ def check_prim(notes: Notes, prim, time, *, attributes: bool = True, samples: bo
         name = rel.GetName()
         if name in _RELATIONSHIP_WHY and rel.GetTargets():
             notes.warn(path, name, f"{_RELATIONSHIP_WHY[name]}; ignored", "NotHonoured")
+
+
+def samples_listable(stage: Usd.Stage) -> bool:
+    """False when a layer of the stage has timeCodesPerSecond 0: USD then maps its time
+    samples by an infinite or zero scale, and listing them does not return."""
+    return all(layer.timeCodesPerSecond != 0 for layer in stage.GetUsedLayers() if layer)
 
 
 def unknown_type(prim) -> str | None:

@@ -42,7 +42,7 @@ from warp_st.core.scene import DEFAULT_CAMERA, Body, Light, RenderSettings, Scen
 from warp_st.usd import attributes as A
 from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
 from warp_st.usd.camera import CameraEvaluator, frame_bounds
-from warp_st.usd.diagnostics import Notes, check_prim, composition, unknown_type
+from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
 from warp_st.usd.geometry import GprimReader, is_hidden, world_transform
 from warp_st.usd.products import read_products
 from warp_st.usd.stage import open_stage, tf_message
@@ -80,6 +80,7 @@ class _StageReader:
         self.stage = stage
         self.where = Where(where.file, static_time(stage))
         self.notes = Notes(where.file)
+        self.notes.count_samples = samples_listable(stage)
         self.xf = UsdGeom.XformCache(self.where.time)
         self.gprims = GprimReader(self.where, self.xf, self.notes)
         self.bodies: list[_BodyBuilder] = []
