@@ -2,8 +2,9 @@
 
 A scene here is one tessellated sphere body built directly from the host dataclasses
 (no USD), one pinhole camera, no lights. The float64 oracle is
-:func:`warp_st.core.lorentz.sphere_hit`; the pinhole model below is docs/spec.md §3's, written out
-independently of the renderer's camera code so the two can be compared per pixel.
+:func:`warp_st.core.lorentz.sphere_hit`; pixel directions are docs/spec.md §3's pinhole in
+float64 NumPy (:func:`warp_st.rendering.camera.pixel_directions`, checked against the
+kernel's rays in tests/rendering/test_camera_directions.py), so the two compare per pixel.
 """
 from __future__ import annotations
 
@@ -15,6 +16,8 @@ import numpy as np
 from warp_st.core import lorentz, tessellate
 from warp_st.core.conventions import LightSpeed
 from warp_st.core.scene import Body, CameraState, RenderSettings, Scene, Surface
+from warp_st.rendering.camera import pixel_directions
+from warp_st.testing import dilate, fit_cone, uv_sphere_gap  # noqa: F401  (dilate, fit_cone: for the tests)
 
 EPS32 = float(np.finfo(np.float32).eps)
 EPS64 = float(np.finfo(np.float64).eps)
@@ -41,45 +44,14 @@ def look_at(forward, up=(0.0, 1.0, 0.0)) -> np.ndarray:
 
 
 def pixel_directions_camera(cam: CameraState, width: int, height: int) -> np.ndarray:
-    """Unit pixel-centre directions in camera space, (H, W, 3), row 0 at the top.
-
-    docs/spec.md §3 pinhole: x_ndc = ((i + 0.5)/W) 2 - 1, y_ndc = 1 - ((j + 0.5)/H) 2;
-    d = (x_ndc hAp/2 + hOff, y_ndc vAp_eff/2 + vOff, -f) with vAp_eff = hAp H / W
-    (the aperture conformed to the image aspect by keeping the horizontal aperture).
-    """
-    i = np.arange(width, dtype=np.float64)
-    j = np.arange(height, dtype=np.float64)
-    x_ndc = ((i + 0.5) / width) * 2.0 - 1.0
-    y_ndc = 1.0 - ((j + 0.5) / height) * 2.0
-    h_ap = float(cam.horizontal_aperture)
-    v_ap = h_ap * height / width
-    f = float(cam.focal_length)
-    X, Y = np.meshgrid(
-        x_ndc * 0.5 * h_ap + float(cam.horizontal_aperture_offset),
-        y_ndc * 0.5 * v_ap + float(cam.vertical_aperture_offset),
-    )
-    d = np.stack([X, Y, np.full_like(X, -f)], axis=-1)
-    return d / np.linalg.norm(d, axis=-1, keepdims=True)
-
-
-def pixel_directions(cam: CameraState, width: int, height: int) -> np.ndarray:
-    """Unit pixel-centre look directions in the camera's REST frame, lab axes, (H, W, 3).
-
-    ``cam.rotation @ d_camera`` for the pinhole directions of
-    :func:`pixel_directions_camera`. For a camera at rest these are the lab directions.
-    """
-    d = pixel_directions_camera(cam, width, height)
-    return d @ np.asarray(cam.rotation, dtype=np.float64).T
+    """Unit pixel-centre directions in camera space, (H, W, 3), row 0 at the top."""
+    return pixel_directions(cam, width, height, frame="camera")
 
 
 def lab_pixel_directions(cam: CameraState, width: int, height: int) -> np.ndarray:
     """Lab look directions (H, W, 3): the rest-frame pixel directions aberrated by the
     camera's velocity (relativistic boost, or Galilean for a decoupled camera; docs/spec.md §3)."""
-    n_rest = pixel_directions(cam, width, height)
-    v = np.asarray(cam.velocity, dtype=np.float64)
-    if not np.any(v):
-        return n_rest
-    return lorentz.aberrate(n_rest, v, classical=bool(cam.decoupled))
+    return pixel_directions(cam, width, height, frame="lab")
 
 
 def pixel_angle(cam: CameraState, width: int) -> float:
@@ -272,19 +244,8 @@ def build_scene(case: SphereCase) -> tuple[Scene, CameraState]:
 
 
 def tessellation_gap(case: SphereCase) -> float:
-    """g = R - (smallest distance from the centre to a triangle's plane), rest shape.
-
-    Every vertex lies on the sphere, so the convex polyhedron P satisfies
-    ball(R - g) ⊆ P ⊆ ball(R). For the UV sphere the widest triangle spans two angular
-    steps 2π/n on its diagonal, so g ≈ R(1 - cos(√2 π/n)) ≈ 2 x the great-circle
-    sagitta R(1 - cos(π/n)); computing g from the mesh makes the bound exact.
-    """
-    pts, tris, _ = tessellate.sphere(case.radius, case.segments)
-    a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
-    nrm = np.cross(b - a, c - a)
-    nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
-    plane_dist = np.abs(np.sum(nrm * a, axis=-1))
-    return float(case.radius - plane_dist.min())
+    """g of the case's UV sphere: ball(R - g) ⊆ polyhedron ⊆ ball(R) (``uv_sphere_gap``)."""
+    return uv_sphere_gap(case.radius, case.segments)
 
 
 @dataclass
@@ -335,27 +296,10 @@ def oracle_image(case: SphereCase, cam: CameraState | None = None) -> OracleImag
 # --------------------------------------------------------------------------- image morphology
 
 
-def _shift_or(mask: np.ndarray) -> np.ndarray:
-    p = np.pad(mask, 1, constant_values=False)
-    out = np.zeros_like(mask)
-    h, w = mask.shape
-    for dj in (0, 1, 2):
-        for di in (0, 1, 2):
-            out |= p[dj:dj + h, di:di + w]
-    return out
-
-
-def dilate(mask: np.ndarray, k: int = 1) -> np.ndarray:
-    """Binary dilation with the 3x3 square, ``k`` times."""
-    for _ in range(k):
-        mask = _shift_or(mask)
-    return mask
-
-
 def erode(mask: np.ndarray, k: int = 1) -> np.ndarray:
     """Binary erosion with the 3x3 square, ``k`` times (outside the image counts as empty)."""
     for _ in range(k):
-        mask = ~_shift_or(~mask)
+        mask = ~dilate(~mask)
         mask[0, :] = mask[-1, :] = False
         mask[:, 0] = mask[:, -1] = False
     return mask
@@ -368,42 +312,7 @@ def boundary(mask: np.ndarray) -> np.ndarray:
     return mask & ~inner
 
 
-# --------------------------------------------------------------------------- cone fit on the sky
-
-
-def fit_cone(dirs: np.ndarray, iterations: int = 20) -> tuple[np.ndarray, float, np.ndarray]:
-    """Fit a circle on the unit sphere (a circular cone) to unit directions (N, 3).
-
-    Returns (axis a, half-angle rho, residual angles angle(a, d_i) - rho). Start: the
-    plane fit (a·d_i = cos rho is a plane: a = the smallest principal axis of the
-    centred points, oriented towards their mean); then Gauss-Newton on the angular
-    residuals over the two tangent-plane rotations of a and rho.
-    """
-    d = np.asarray(dirs, dtype=np.float64)
-    m = d.mean(axis=0)
-    w, vecs = np.linalg.eigh(np.cov((d - m).T))
-    a = vecs[:, 0]
-    if a @ m < 0:
-        a = -a
-    ang = np.arccos(np.clip(d @ a, -1.0, 1.0))
-    rho = ang.mean()
-    for _ in range(iterations):
-        e1 = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(a, e1)
-        ang = np.arccos(np.clip(d @ a, -1.0, 1.0))
-        r = ang - rho
-        sin_ang = np.maximum(np.sin(ang), 1e-300)
-        # d(angle)/d(a along e_k) = -(d·e_k)/sin(angle); d r/d rho = -1
-        J = np.stack([-(d @ e1) / sin_ang, -(d @ e2) / sin_ang, -np.ones_like(ang)], axis=1)
-        step, *_ = np.linalg.lstsq(J, -r, rcond=None)
-        a = a + step[0] * e1 + step[1] * e2
-        a /= np.linalg.norm(a)
-        rho = rho + step[2]
-        if np.max(np.abs(step)) < 1e-15:
-            break
-    ang = np.arccos(np.clip(d @ a, -1.0, 1.0))
-    return a, float(rho), ang - rho
+# --------------------------------------------------------------------------- cone on the sky
 
 
 def predicted_outline_cone(center, radius, v, t_ref, cam_time, cam_pos) -> tuple[np.ndarray, float]:

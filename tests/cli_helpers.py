@@ -1,4 +1,5 @@
-"""Helpers for tests that run ``warp-st`` in a child process and interrupt it."""
+"""Helpers for tests that run ``warp-st`` (in-process or in a child process, interrupted),
+and the small stage they render."""
 from __future__ import annotations
 
 import os
@@ -10,6 +11,45 @@ from pathlib import Path
 from warp_st.output import exr
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def moving_body_stage(body: str, *, end_time: int, extra: str = "", vertical_aperture: float | None = None) -> str:
+    """A small stage: a camera at (0, 0, 10) looking down -Z, the prim /World/Mover moving at
+    0.5c along +x (SpacetimeBodyAPI) holding the gprim text ``body``, a distant light of
+    intensity 1, and ``extra`` (more prims under /World); time codes 0 to ``end_time``."""
+    aperture = "" if vertical_aperture is None else f"\n        float verticalAperture = {vertical_aperture:g}"
+    return f"""#usda 1.0
+(
+    upAxis = "Y"
+    startTimeCode = 0
+    endTimeCode = {end_time}
+)
+
+def Xform "World"
+{{
+    def Camera "Cam"
+    {{
+        double3 xformOp:translate = (0, 0, 10)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+        float focalLength = 35
+        float horizontalAperture = 36{aperture}
+    }}
+
+    def Xform "Mover" (
+        prepend apiSchemas = ["SpacetimeBodyAPI"]
+    )
+    {{
+        custom double4 spacetime:fourVelocity = (1, 0.5, 0, 0)
+
+        {body}
+    }}
+{extra}
+    def DistantLight "Sun"
+    {{
+        float inputs:intensity = 1
+    }}
+}}
+"""
 
 
 def child_env(**extra) -> dict:

@@ -6,7 +6,7 @@ from warp_st.core import tessellate
 from warp_st.core.scene import Body, Material, RenderSettings, Scene, Surface
 from warp_st.kernels import get_kernels
 from warp_st.rendering.device import StaticArrays, make_geometry
-from warp_st.rendering.renderer import _warp, build_database
+from warp_st.rendering.renderer import build_database, init_warp
 
 
 def sphere_body(path, centre, radius, velocity=(0, 0, 0), *, segments=24, decoupled=False, lifetime=(-np.inf, np.inf), t_ref=0.0):
@@ -37,7 +37,7 @@ class Database:
     """A scene extruded over fixed windows, uploaded for one render origin."""
 
     def __init__(self, scene, windows, *, precision="float32", origin=(0, 0, 0, 0), primitive="tet"):
-        _warp()
+        init_warp()
         self.k = get_kernels(precision, primitive)
         self.np_scalar = np.float32 if precision == "float32" else np.float64
         self.mesh, self.bvh = build_database(scene, windows, primitive)
@@ -109,3 +109,36 @@ def solve_tets_f64(events, origin, direction, finite=True):
     abc, s = sol[:, :3], sol[:, 3]
     lam = np.concatenate([1.0 - abc.sum(axis=1, keepdims=True), abc], axis=1)
     return s, lam
+
+
+def mixed_scene():
+    """Bodies at rest and moving, coupled and decoupled (2c), with finite lifetimes
+    (the scene of tests/accel/test_tracing.py and tests/spacetime/test_prisms.py)."""
+    return scene_of(
+        sphere_body("/Coupled", (0, 0, -4), 1.0, (0.9, 0, 0), lifetime=(-20.0, 2.0)),
+        cube_body("/Superluminal", (2, 1, -6), 1.5, (-2.0, 0, 0.3), decoupled=True),
+        sphere_body("/Still", (-2, -1, -5), 0.7),
+        cube_body("/Fast", (1, -2, -3), 0.8, (0, 0.99, 0), lifetime=(-15.0, -3.0)),
+    )
+
+
+def tube_windows(scene, lo=-25.0, hi=5.0):
+    """Each body's extrusion window: its lifetime cut to [lo, hi]."""
+    return [(max(lo, b.lifetime[0]), min(hi, b.lifetime[1])) for b in scene.bodies]
+
+
+def random_rays(rng, n, db, finite=True):
+    """Half aimed at random events on the world-tubes (from 0.5-8 units away, so
+    lifetimes and windows are crossed), half random from random events (mostly misses)."""
+    events = db.mesh.tet_events()
+    pick = rng.integers(0, len(events), n)
+    lam = rng.dirichlet(np.ones(4), n)
+    targets = np.einsum("nk,nkj->nj", lam, events[pick])
+    view = rng.normal(size=(n, 3))
+    view /= np.linalg.norm(view, axis=1, keepdims=True)
+    dist = rng.uniform(0.5, 8.0, n)
+    origins = np.column_stack([targets[:, 0] + (dist if finite else 0.0), targets[:, 1:] + dist[:, None] * view])
+    dirs = -view
+    half = n // 2
+    origins[half:] = np.column_stack([rng.uniform(-20, 4, n - half), rng.uniform(-4, 4, (n - half, 2)), rng.uniform(-8, 2, n - half)])
+    return origins, dirs

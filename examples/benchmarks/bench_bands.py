@@ -28,6 +28,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_trace as bt  # noqa: E402
+from benchlib.machine import cpu_model  # noqa: E402
+from benchlib.scenes import load_parade, static_version  # noqa: E402
 
 
 def parse_args(argv=None):
@@ -49,17 +51,19 @@ def tracers(scene, width, height):
     import warp as wp
 
     from warp_st.kernels import get_kernels
-    from warp_st.rendering.renderer import Renderer, _warp
+    from warp_st.rendering.camera import pixel_directions
+    from warp_st.rendering.renderer import Renderer, init_warp
     from warp_st.spacetime.visibility import visibility_windows
 
-    _warp()
-    cam = Renderer(scene, frames=[0], width=16, height=9)._cameras[0]
-    sscene = bt.static_version(scene)
+    init_warp()
+    r = Renderer(scene, frames=[0], width=16, height=9)
+    cam = scene.camera_state(r.camera_path, r.frames[0])
+    sscene = static_version(scene)
     windows = visibility_windows(sscene, [cam], infinite=False)
     origin = np.array([cam.time, *cam.position], dtype=np.float64)
     k = get_kernels("float32", "prism")
-    geo, _mesh, _bvh, _ = bt._our_tracer(k, sscene, windows, "prism", origin)
-    dirs64 = bt.pixel_directions(cam, width, height)
+    geo, _mesh, _bvh, _ = bt.our_tracer(k, sscene, windows, "prism", origin)
+    dirs64 = pixel_directions(cam, width, height).reshape(-1, 3)
     n = len(dirs64)
     dirs = wp.array(dirs64.astype(np.float32), dtype=wp.vec3, device="cpu")
     ours, (prim, _s, visits) = bt.probe_launcher(k, geo, dirs)
@@ -103,7 +107,7 @@ def main(argv=None) -> int:
     args = parse_args(argv)
     import warp_st
 
-    scene = bt.load_parade() if args.scene == "parade" else warp_st.load(str(bt.ROOT / bt.SHIPPED[args.scene]))
+    scene = load_parade() if args.scene == "parade" else warp_st.load(str(bt.ROOT / bt.SHIPPED[args.scene]))
     if args.only:
         n, ours, theirs, _out = tracers(scene, args.width, args.height)
         a, b = band_range(args.band, args.bands, args.width, args.height)
@@ -113,7 +117,8 @@ def main(argv=None) -> int:
             fn(a, b)
         return 0
     rows = band_table(scene, args.width, args.height, args.bands, args.runs)
-    print(f"{args.scene} static copy, {args.width}x{args.height}, {args.bands} bands, median of {args.runs}, 1 thread")
+    print(f"{args.scene} static copy, {args.width}x{args.height}, {args.bands} bands, median of {args.runs}, 1 thread; "
+          f"CPU: {cpu_model()}")
     print("| band | ours ns/ray | wp.Mesh ns/ray | ours / wp.Mesh speed | hits | wide visits/ray |")
     print("|---|---|---|---|---|---|")
     for band, x, y, hit, vis in rows:

@@ -21,9 +21,11 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+for _path in (HERE, ROOT):  # benchlib, and warp_st from this checkout when it is not installed
+    if str(_path) not in sys.path:
+        sys.path.insert(0, str(_path))
 os.environ.setdefault("WARP_CACHE_PATH", str(ROOT / ".warp_cache"))
 
 
@@ -49,6 +51,7 @@ def measure(scene: str, frames: list[float], workers: int, width: int, height: i
 
 
 def main(argv=None) -> int:
+    from benchlib.machine import cpu_model
     from warp_st.core.frames import parse_frames
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -72,8 +75,8 @@ def main(argv=None) -> int:
 
     local = _median([r["wall"] for r in rows[0]])
     print(f"{len(args.frames)} frames of {Path(args.scene).name} at {args.width}x{args.height}, "
-          f"{os.cpu_count()} cores, median of {args.runs} runs; load average {load_before[0]:.2f} before, "
-          f"{load_after[0]:.2f} after\n")
+          f"{os.cpu_count()} cores ({cpu_model()}), median of {args.runs} runs; "
+          f"load average {load_before[0]:.2f} before, {load_after[0]:.2f} after\n")
     print("| mode | wall s (median) | min-max | build s | s per frame (one process) | vs this process |")
     print("|---|---:|---:|---:|---:|---:|")
     for m in modes:

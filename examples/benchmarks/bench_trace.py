@@ -30,9 +30,11 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+for _path in (HERE, ROOT):  # benchlib, and warp_st from this checkout when it is not installed
+    if str(_path) not in sys.path:
+        sys.path.insert(0, str(_path))
 
 SCENES = ("parade", "spheres", "cubes", "flanges", "aberration")
 #: Shipped stages benchmarked besides the parade (rendered at their start frame).
@@ -74,16 +76,12 @@ def parse_args(argv=None):
 # --------------------------------------------------------------------------- scenes
 
 
-# Scene builders and machine helpers are shared with `warp-st bench` (warp_st/bench.py).
-from warp_st.bench import (  # noqa: E402
-    cube_cloud_scene,
-    load_parade,
-    machine_info,
-    sphere_grid_scene,
-    static_version,
-    summarize,
-)
+# Scene builders and machine helpers are shared with bench_performance.py (benchlib/).
+from benchlib.machine import machine_info, summarize  # noqa: E402
+from benchlib.scenes import cube_cloud_scene, load_parade, static_version  # noqa: E402
 from warp_st.core.scene import surface_triangles  # noqa: E402
+from warp_st.rendering.camera import pixel_directions  # noqa: E402
+from warp_st.testing import sphere_grid_scene  # noqa: E402
 
 
 def cache_entries(wp):
@@ -92,22 +90,6 @@ def cache_entries(wp):
         return set(os.listdir(d)) if d and os.path.isdir(d) else set()
     except OSError:
         return set()
-
-
-def pixel_directions(cam, width, height):
-    """Unit lab pixel-centre directions, (H*W, 3), row-major from the top row (docs/spec.md §3
-    pinhole, the model of warp_st/camera.py; the benchmark cameras are at rest)."""
-    i = np.arange(width, dtype=np.float64)
-    j = np.arange(height, dtype=np.float64)
-    x_ndc = 2.0 * (i + 0.5) / width - 1.0
-    y_ndc = 1.0 - 2.0 * (j + 0.5) / height
-    h_ap = float(cam.horizontal_aperture)
-    v_ap = h_ap * height / width
-    f = float(cam.focal_length)
-    X, Y = np.meshgrid((x_ndc * h_ap / 2 + float(cam.horizontal_aperture_offset)) / f, (y_ndc * v_ap / 2 + float(cam.vertical_aperture_offset)) / f)
-    d = np.stack([X, Y, -np.ones_like(X)], axis=-1).reshape(-1, 3)
-    d = d @ np.asarray(cam.rotation, dtype=np.float64).T
-    return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
 def _nbytes(a):
@@ -243,9 +225,9 @@ def bench_renderer(name, scene, args, log, first):
     import warp as wp
 
     from warp_st.rendering.device import make_geometry
-    from warp_st.rendering.renderer import Renderer, _warp
+    from warp_st.rendering.renderer import Renderer, init_warp
 
-    _warp()
+    init_warp()
     before = cache_entries(wp) if first else None
     t0 = time.perf_counter()
     r = Renderer(scene, frames=[0], width=args.width, height=args.height, primitive="prism")
@@ -273,7 +255,7 @@ def bench_renderer(name, scene, args, log, first):
         new = cache_entries(wp) - before
         res["first_construction"] = True
         res["kernel_cache"] = "cold (compiled now)" if new else "warm (loaded from cache)"
-    cam = r._cameras[r.frames[0]]
+    cam = scene.camera_state(r.camera_path, r.frames[0])
     origin = np.array([cam.time, *cam.position], dtype=np.float64)
     geo = make_geometry(r.kernels, r.static, r.mesh, r.bvh, origin)
     trace_b, all_b = uploaded_bytes(r.static, geo)
@@ -318,7 +300,7 @@ def embree_scene(tri_points):
     return scene
 
 
-def _our_tracer(k, sscene, windows, primitive, origin):
+def our_tracer(k, sscene, windows, primitive, origin):
     """(geometry, mesh, bvh, build seconds) of our 4D database over ``primitive``."""
     from warp_st.rendering.device import StaticArrays, make_geometry
     from warp_st.rendering.renderer import build_database
@@ -337,26 +319,26 @@ def bench_static(name, scene, cam, args, log):
     import warp as wp
 
     from warp_st.kernels import get_kernels
-    from warp_st.rendering.renderer import _TILE_PIXELS, _warp
+    from warp_st.rendering.renderer import TILE_PIXELS, init_warp
     from warp_st.spacetime.visibility import visibility_windows
 
-    _warp()
+    init_warp()
     sscene = static_version(scene)
     res = {}
     windows = visibility_windows(sscene, [cam], infinite=False)
     origin = np.array([cam.time, *cam.position], dtype=np.float64)
     pts, tris = scene_triangles(sscene, windows)
     res["triangles"] = int(len(tris))
-    dirs64 = pixel_directions(cam, args.width, args.height)
+    dirs64 = pixel_directions(cam, args.width, args.height).reshape(-1, 3)  # the same rays for every tracer
     n = len(dirs64)
     dirs = wp.array(dirs64.astype(np.float32), dtype=wp.vec3, device="cpu")
     # The renderer's tile size, smaller for tiny images so two threads still balance.
-    launcher = Launcher(n, min(_TILE_PIXELS, max(256, n // 16)))
+    launcher = Launcher(n, min(TILE_PIXELS, max(256, n // 16)))
     tracers = {}  # name -> (launch tile, hit triangle per ray or -1, lookback per ray)
 
     for primitive in ("prism", "tet"):
         k = get_kernels("float32", primitive)
-        geo, mesh, bvh, build = _our_tracer(k, sscene, windows, primitive, origin)
+        geo, mesh, bvh, build = our_tracer(k, sscene, windows, primitive, origin)
         assert mesh.tet_count == 3 * len(tris), "static extrusion should give one prism = 3 tetrahedra per triangle"
         res[f"{primitive}_build_s"] = build
         res[f"{primitive}_primitives"] = mesh.prim_count
@@ -588,9 +570,9 @@ def main(argv=None):
         cold_dir = tempfile.mkdtemp(prefix="warp_st_bench_cache_")
         os.environ["WARP_CACHE_PATH"] = cold_dir
         atexit.register(shutil.rmtree, cold_dir, ignore_errors=True)
-    from warp_st.rendering.renderer import _warp
+    from warp_st.rendering.renderer import init_warp
 
-    wp = _warp()
+    wp = init_warp()
 
     def log(msg):
         print(msg, file=sys.stderr, flush=True)

@@ -24,7 +24,6 @@ edits are made on an in-memory copy of the stage; the file is not changed).
 """
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from pathlib import Path
@@ -35,6 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import thesis_common as T  # noqa: E402
 
 import warp_st  # noqa: E402
+from warp_st.rendering.camera import ray_directions  # noqa: E402
 from warp_st.rendering.renderer import Renderer  # noqa: E402
 
 SCENE = T.SCENES / "aberration.usda"
@@ -95,8 +95,8 @@ def edge_angle(img, cam, mask, j, side):
     boundary = i + (1.0 if side == "right" else 0.0)
     if not abs(p_edge - boundary) <= 1.0:  # a failed extrapolation: keep the pixel boundary
         p_edge = boundary
-    d = T.pixel_dirs(cam, img.width, img.height, p_edge, j + 0.5)
-    d2 = T.pixel_dirs(cam, img.width, img.height, p_edge + 0.5, j + 0.5)
+    d = ray_directions(cam, img.width, img.height, p_edge, j + 0.5)
+    d2 = ray_directions(cam, img.width, img.height, p_edge + 0.5, j + 0.5)
     return view_angle(d), abs(view_angle(d2) - view_angle(d))
 
 
@@ -133,7 +133,7 @@ def measure(name, beta, vhat, classical, size, out=None):
         hr.append(h)
     # a pixel at the marker (for its tolerance): the angular size of half a pixel there
     pm = T.pixel_of(cam, size, size, m)
-    hm = abs(view_angle(T.pixel_dirs(cam, size, size, pm[0] + 0.5, pm[1])) - view_angle(m))
+    hm = abs(view_angle(ray_directions(cam, size, size, pm[0] + 0.5, pm[1])) - view_angle(m))
     return dict(marker=(view_angle(m), exp_marker, hm), left=(np.mean(lefts), exp_left, max(hl)),
                 right=(np.mean(rights), exp_right, max(hr)), hfov=2 * half_fov, img=img)
 
@@ -184,14 +184,9 @@ def run(quick: bool = False, out: Path | None = None) -> list[T.Row]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="240 x 240 and the thesis's views only")
-    parser.add_argument("--out", type=Path, default=None, help="write the rendered EXRs here")
-    args = parser.parse_args(argv)
-    rows = run(args.quick, args.out)
-    T.print_table("Figs. 4.10-4.13: aberration of a distant cube (angles from the view axis, + = right)", rows,
-                  "python examples/thesis/aberration.py" + (" --quick" if args.quick else ""))
-    return T.summary(rows)
+    return T.experiment_main(argv, run, __doc__,
+                             "Figs. 4.10-4.13: aberration of a distant cube (angles from the view axis, + = right)",
+                             "examples/thesis/aberration.py", quick="240 x 240 and the thesis's views only")
 
 
 if __name__ == "__main__":

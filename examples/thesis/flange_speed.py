@@ -17,7 +17,6 @@ changes from frame to frame, so the fit averages the pixel quantisation away).
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -95,14 +94,9 @@ def run(quick: bool = False, out: Path | None = None) -> list[T.Row]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="320 x 240 and fewer frames")
-    parser.add_argument("--out", type=Path, default=None, help="write the frames 920 and 1151 EXRs here")
-    args = parser.parse_args(argv)
-    rows = run(args.quick, args.out)
-    T.print_table("Figs. 4.7-4.8: flange at 0.00866c, apparent speed", rows,
-                  "python examples/thesis/flange_speed.py" + (" --quick" if args.quick else ""))
-    return T.summary(rows)
+    return T.experiment_main(argv, run, __doc__, "Figs. 4.7-4.8: flange at 0.00866c, apparent speed",
+                             "examples/thesis/flange_speed.py", quick="320 x 240 and fewer frames",
+                             out="write the frames 920 and 1151 EXRs here")
 
 
 if __name__ == "__main__":

@@ -23,7 +23,6 @@ Measured from the hit events (camera at rest: x = c + Z n):
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -148,14 +147,8 @@ def run(quick: bool = False, out: Path | None = None) -> list[T.Row]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="320 x 240")
-    parser.add_argument("--out", type=Path, default=None, help="write the rendered EXRs here")
-    args = parser.parse_args(argv)
-    rows = run(args.quick, args.out)
-    T.print_table("Figs. 4.14-4.15: flange at 0.866c, Terrell lag and contraction", rows,
-                  "python examples/thesis/flange_terrell.py" + (" --quick" if args.quick else ""))
-    return T.summary(rows)
+    return T.experiment_main(argv, run, __doc__, "Figs. 4.14-4.15: flange at 0.866c, Terrell lag and contraction",
+                             "examples/thesis/flange_terrell.py", quick="320 x 240")
 
 
 if __name__ == "__main__":

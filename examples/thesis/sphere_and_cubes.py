@@ -27,7 +27,6 @@ along +x, Lorentz coupled) at frame 0, and measures from the images:
 """
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 from pathlib import Path
@@ -40,7 +39,9 @@ from pxr import Sdf  # noqa: E402  (after warp_st: it registers the spacetime sc
 
 import warp_st  # noqa: E402
 from warp_st.core import lorentz  # noqa: E402
+from warp_st.rendering.camera import ray_directions  # noqa: E402
 from warp_st.rendering.renderer import Renderer  # noqa: E402
+from warp_st.testing import fit_cone  # noqa: E402
 
 REST = T.SCENES / "sphere_and_cubes.usda"
 MOVING = T.SCENES / "sphere_and_cubes_moving.usda"
@@ -78,7 +79,7 @@ def expected_circle(cam, v, t_ref, centre=np.zeros(3), radius=1.0, n=720):
     phi = np.linspace(0, 2 * np.pi, n, endpoint=False)[:, None]
     ring = math.cos(rho_b) * axis_b + math.sin(rho_b) * (np.cos(phi) * e1 + np.sin(phi) * e2)
     lab = lorentz.aberrate(ring, v) if np.any(v) else ring
-    axis, rho, _ = T.fit_cone(lab)
+    axis, rho, _ = fit_cone(lab)
     return axis, rho
 
 
@@ -86,8 +87,8 @@ def circle_rows(img, cam, label, v, t_ref, pix):
     sid = T.body_id(img, "/World/Bodies/Sphere")
     mask = img.object_id == sid
     b = T.boundary_midpoints(mask)
-    d = T.pixel_dirs(cam, img.width, img.height, b[:, 0], b[:, 1])
-    axis, rho, resid = T.fit_cone(d)
+    d = ray_directions(cam, img.width, img.height, b[:, 0], b[:, 1])
+    axis, rho, resid = fit_cone(d)
     rms, worst = float(np.sqrt(np.mean(resid ** 2)) / pix), float(np.abs(resid).max() / pix)
     rows = [T.Row(f"{label}: outline residual rms", rms, 0.0, 0.5, "px", "a circle",
                   f"{len(b)} outline points, worst {worst:.2f} px, fitted radius {math.degrees(rho):.4f} deg")]
@@ -175,14 +176,9 @@ def run(quick: bool = False, out: Path | None = None) -> list[T.Row]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="320 x 180")
-    parser.add_argument("--out", type=Path, default=None, help="write the rendered EXRs here")
-    args = parser.parse_args(argv)
-    rows = run(args.quick, args.out)
-    T.print_table("Figs. 2.1-2.2: sphere and cubes at 0.866c: circular outline and Terrell rotation", rows,
-                  "python examples/thesis/sphere_and_cubes.py" + (" --quick" if args.quick else ""))
-    return T.summary(rows)
+    return T.experiment_main(argv, run, __doc__,
+                             "Figs. 2.1-2.2: sphere and cubes at 0.866c: circular outline and Terrell rotation",
+                             "examples/thesis/sphere_and_cubes.py", quick="320 x 180")
 
 
 if __name__ == "__main__":

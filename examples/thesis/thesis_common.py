@@ -1,12 +1,13 @@
-"""Shared helpers for the thesis experiments: pinhole geometry, hit events, fits, tables.
+"""Shared helpers for the thesis experiments: hit events, edges, fits, tables, the command line.
 
 Everything here is plain NumPy in float64 and independent of the renderer's kernels:
-pixel directions follow docs/spec.md §3's pinhole model written out again (as
-``tests/analytic_scenes.py`` does), and hit events are rebuilt from the AOVs alone
+pixel directions are docs/spec.md §3's pinhole (``warp_st.rendering.camera.ray_directions``,
+the float64 twin of the kernel camera), and hit events are rebuilt from the AOVs alone
 (a camera at rest: event = (t_c - Z, c + Z n) with n the pixel's direction).
 """
 from __future__ import annotations
 
+import argparse
 import importlib.util
 import math
 import sys
@@ -21,25 +22,10 @@ if importlib.util.find_spec("warp_st") is None:  # run from a checkout without `
 SCENES = ROOT / "usd_scenes" / "thesis"
 BETA_FAST = math.sqrt(3.0) / 2.0  # the thesis's "0.866c" (gamma = 2)
 
+from warp_st.rendering.camera import pixel_directions, ray_directions  # noqa: E402
+
 
 # --------------------------------------------------------------------------- pinhole
-
-
-def pixel_dirs(cam, width: int, height: int, px, py) -> np.ndarray:
-    """Unit look directions in the camera's REST frame, lab axes, at continuous pixel
-    coordinates (px, py): pixel (i, j)'s centre is (i + 0.5, j + 0.5), row 0 at the top.
-
-    docs/spec.md §3: d = (x_ndc hAp/2 + hOff, y_ndc vAp/2 + vOff, -f), x_ndc = 2 px / W - 1,
-    y_ndc = 1 - 2 py / H, the vertical aperture conformed to the image (vAp = hAp H / W).
-    """
-    px, py = np.broadcast_arrays(np.asarray(px, np.float64), np.asarray(py, np.float64))
-    h_ap = float(cam.horizontal_aperture)
-    v_ap = h_ap * height / width
-    x = (2.0 * px / width - 1.0) * 0.5 * h_ap + float(cam.horizontal_aperture_offset)
-    y = (1.0 - 2.0 * py / height) * 0.5 * v_ap + float(cam.vertical_aperture_offset)
-    d = np.stack([x, y, np.full_like(x, -float(cam.focal_length))], axis=-1)
-    d = d / np.linalg.norm(d, axis=-1, keepdims=True)
-    return d @ np.asarray(cam.rotation, np.float64).T
 
 
 def pixel_of(cam, width: int, height: int, dirs) -> np.ndarray:
@@ -55,18 +41,13 @@ def pixel_of(cam, width: int, height: int, dirs) -> np.ndarray:
     return np.stack([px, py], axis=-1)
 
 
-def pixel_centre_dirs(cam, width: int, height: int) -> np.ndarray:
-    j, i = np.mgrid[0:height, 0:width]
-    return pixel_dirs(cam, width, height, i + 0.5, j + 0.5)
-
-
 def hit_events(img, cam) -> tuple[np.ndarray, np.ndarray]:
     """(t, x): event time (H, W) and lab position (H, W, 3) of every pixel's first hit,
     rebuilt from the AOVs for a camera AT REST: x = c + Z n (Z = the lookback s; docs/spec.md §4,
     the distance in the camera's rest frame, which is the lab here). NaN on misses."""
     if np.any(np.asarray(cam.velocity)):
         raise ValueError("hit_events needs a camera at rest")
-    n = pixel_centre_dirs(cam, img.width, img.height)
+    n = pixel_directions(cam, img.width, img.height)
     z = img.depth.astype(np.float64)
     z = np.where(img.object_id > 0, z, np.nan)
     x = np.asarray(cam.position, np.float64) + z[..., None] * n
@@ -83,7 +64,7 @@ def body_id(img, prim_path: str) -> int:
 
 def ray_plane(cam, width, height, px, py, normal, offset) -> np.ndarray:
     """Lab points where the rays of a camera at rest through (px, py) meet n·x = offset."""
-    d = pixel_dirs(cam, width, height, px, py)
+    d = ray_directions(cam, width, height, px, py)
     c = np.asarray(cam.position, np.float64)
     n = np.asarray(normal, np.float64)
     s = (offset - c @ n) / (d @ n)
@@ -135,36 +116,7 @@ def plane_edge_x(img, cam, mask, side, *, plane_z, axis=0):
     return np.array(rows, dtype=np.float64).reshape(-1, 5)
 
 
-# --------------------------------------------------------------------------- fits
-
-
-def fit_cone(dirs: np.ndarray, iterations: int = 50):
-    """Best circle on the unit sphere through unit vectors ``dirs`` (N, 3):
-    (axis (3,), angular radius, residuals (N,) in radians), by Gauss-Newton on
-    acos(d·a) - rho."""
-    d = np.asarray(dirs, np.float64)
-    a = d.mean(axis=0)
-    a /= np.linalg.norm(a)
-    rho = float(np.mean(np.arccos(np.clip(d @ a, -1, 1))))
-    # tangent basis at a
-    for _ in range(iterations):
-        e1 = np.cross(a, [0.0, 1.0, 0.0] if abs(a[1]) < 0.9 else [1.0, 0.0, 0.0])
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(a, e1)
-        cosang = np.clip(d @ a, -1.0, 1.0)
-        ang = np.arccos(cosang)
-        r = ang - rho
-        sin = np.maximum(np.sin(ang), 1e-12)
-        # d(ang)/d(a + u e1 + w e2) = -(d·e) / sin(ang)
-        J = np.stack([-(d @ e1) / sin, -(d @ e2) / sin, -np.ones_like(ang)], axis=1)
-        step, *_ = np.linalg.lstsq(J, -r, rcond=None)
-        a = a + step[0] * e1 + step[1] * e2
-        a /= np.linalg.norm(a)
-        rho += step[2]
-        if np.abs(step).max() < 1e-15:
-            break
-    resid = np.arccos(np.clip(d @ a, -1.0, 1.0)) - rho
-    return a, float(rho), resid
+# --------------------------------------------------------------------------- outlines
 
 
 def boundary_midpoints(mask: np.ndarray) -> np.ndarray:
@@ -185,7 +137,7 @@ def solid_angle_centroid(cam, width, height, mask) -> np.ndarray:
     """Unit mean direction of the pixels in ``mask``, each weighted by its solid angle
     (a pinhole pixel at angle theta off-axis subtends ∝ cos^3 theta)."""
     j, i = np.nonzero(mask)
-    d = pixel_dirs(cam, width, height, i + 0.5, j + 0.5)
+    d = ray_directions(cam, width, height, i + 0.5, j + 0.5)
     axis = np.asarray(cam.rotation, np.float64) @ np.array([0.0, 0.0, -1.0])
     w = (d @ axis) ** 3
     m = (d * w[:, None]).sum(axis=0)
@@ -234,8 +186,8 @@ class Row:
 def print_table(title: str, rows: list[Row], command: str) -> None:
     print(f"## {title}")
     print(f"$ {command}")
-    print(f"| quantity | measured | expected (closed form) | tolerance | thesis | ok |")
-    print(f"|---|---|---|---|---|---|")
+    print("| quantity | measured | expected (closed form) | tolerance | thesis | ok |")
+    print("|---|---|---|---|---|---|")
     for r in rows:
         u = f" {r.unit}" if r.unit else ""
         print(f"| {r.name} | {r.measured:.5g}{u} | {r.expected:.5g}{u} | ±{r.tol:.2g} | {r.thesis} | "
@@ -249,3 +201,20 @@ def summary(rows: list[Row]) -> int:
     bad = [r.name for r in rows if not r.ok]
     print(f"{len(rows) - len(bad)}/{len(rows)} within tolerance" + (f"; outside: {', '.join(bad)}" if bad else ""))
     return 1 if bad else 0
+
+
+# --------------------------------------------------------------------------- command line
+
+
+def experiment_main(argv, run, doc: str, title: str, script: str, *, quick: str,
+                    out: str = "write the rendered EXRs here") -> int:
+    """The command line of one experiment: ``--quick`` (help text ``quick``) and ``--out DIR``
+    (help text ``out``) go to ``run(quick, out)``, whose rows are printed as the table
+    ``title`` with the command that made it; exit status 1 when a row is out of tolerance."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help=quick)
+    parser.add_argument("--out", type=Path, default=None, help=out)
+    args = parser.parse_args(argv)
+    rows = run(args.quick, args.out)
+    print_table(title, rows, f"python {script}" + (" --quick" if args.quick else ""))
+    return summary(rows)

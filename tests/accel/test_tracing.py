@@ -1,38 +1,15 @@
 """Closest hits through the 4D BVH: brute force, a float64 oracle, watertightness."""
 import numpy as np
 import pytest
-from tracing_helpers import Database, cube_body, scene_of, solve_tets_f64, sphere_body
-
-
-def _mixed_scene():
-    """Bodies at rest and moving, coupled and decoupled (2c), with finite lifetimes."""
-    return scene_of(
-        sphere_body("/Coupled", (0, 0, -4), 1.0, (0.9, 0, 0), lifetime=(-20.0, 2.0)),
-        cube_body("/Superluminal", (2, 1, -6), 1.5, (-2.0, 0, 0.3), decoupled=True),
-        sphere_body("/Still", (-2, -1, -5), 0.7),
-        cube_body("/Fast", (1, -2, -3), 0.8, (0, 0.99, 0), lifetime=(-15.0, -3.0)),
-    )
-
-
-def _windows(scene, lo=-25.0, hi=5.0):
-    return [(max(lo, b.lifetime[0]), min(hi, b.lifetime[1])) for b in scene.bodies]
-
-
-def _random_rays(rng, n, db, finite=True):
-    """Half aimed at random events on the world-tubes (from 0.5-8 units away, so
-    lifetimes and windows are crossed), half random from random events (mostly misses)."""
-    events = db.mesh.tet_events()
-    pick = rng.integers(0, len(events), n)
-    lam = rng.dirichlet(np.ones(4), n)
-    targets = np.einsum("nk,nkj->nj", lam, events[pick])
-    view = rng.normal(size=(n, 3))
-    view /= np.linalg.norm(view, axis=1, keepdims=True)
-    dist = rng.uniform(0.5, 8.0, n)
-    origins = np.column_stack([targets[:, 0] + (dist if finite else 0.0), targets[:, 1:] + dist[:, None] * view])
-    dirs = -view
-    half = n // 2
-    origins[half:] = np.column_stack([rng.uniform(-20, 4, n - half), rng.uniform(-4, 4, (n - half, 2)), rng.uniform(-8, 2, n - half)])
-    return origins, dirs
+from tracing_helpers import (
+    Database,
+    mixed_scene,
+    random_rays,
+    scene_of,
+    solve_tets_f64,
+    sphere_body,
+    tube_windows,
+)
 
 
 @pytest.mark.parametrize("primitive", ["prism", "tet"])
@@ -45,10 +22,10 @@ def test_bvh_closest_hit_equals_brute_force(precision, finite, primitive):
     agree exactly; the lookback s may differ only where two tetrahedra share the hit
     point (a shared face), by float rounding of the barycentric interpolation: 2e-5 of
     the scene scale (~10) in float32."""
-    scene = _mixed_scene()
-    db = Database(scene, _windows(scene), precision=precision, origin=(-3, 0, 0, 0), primitive=primitive)
+    scene = mixed_scene()
+    db = Database(scene, tube_windows(scene), precision=precision, origin=(-3, 0, 0, 0), primitive=primitive)
     rng = np.random.default_rng(7 + finite)
-    origins, dirs = _random_rays(rng, 12000, db, finite)
+    origins, dirs = random_rays(rng, 12000, db, finite)
     tet_b, s_b, visits = db.cast(origins, dirs, finite=finite)
     tet_f, s_f, _ = db.cast(origins, dirs, finite=finite, brute=True)
     assert np.array_equal(tet_b >= 0, tet_f >= 0)
@@ -63,11 +40,11 @@ def test_kernel_hits_match_float64_oracle():
     """Every hit the float32 kernel reports solves O + s d = sum lam_i V_i in float64 with
     lam >= 0 (up to 1e-4, float32 rounding of coordinates ~10 units), and no float64 hit
     that is robustly inside a tetrahedron (all lam > 1e-4) lies nearer than the kernel's."""
-    scene = _mixed_scene()
-    db = Database(scene, _windows(scene))
+    scene = mixed_scene()
+    db = Database(scene, tube_windows(scene))
     events = db.mesh.tet_events()
     rng = np.random.default_rng(3)
-    origins, dirs = _random_rays(rng, 600, db)
+    origins, dirs = random_rays(rng, 600, db)
     tet, s, _ = db.cast(origins, dirs)
     for i in range(len(origins)):
         s64, lam = solve_tets_f64(events, origins[i], dirs[i])

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_helpers import moving_body_stage
 
 import warp_st
 from warp_st.commands.cli import expand_output, format_frame, has_frame_pattern, main, parse_frames
@@ -29,42 +30,8 @@ from warp_st.output.film import Image
 
 REPO = Path(__file__).resolve().parents[2]
 
-TINY_SCENE = """#usda 1.0
-(
-    upAxis = "Y"
-    startTimeCode = 0
-    endTimeCode = 2
-)
-
-def Xform "World"
-{
-    def Camera "Cam"
-    {
-        double3 xformOp:translate = (0, 0, 10)
-        uniform token[] xformOpOrder = ["xformOp:translate"]
-        float focalLength = 35
-        float horizontalAperture = 36
-        float verticalAperture = 27
-    }
-
-    def Xform "Mover" (
-        prepend apiSchemas = ["SpacetimeBodyAPI"]
-    )
-    {
-        custom double4 spacetime:fourVelocity = (1, 0.5, 0, 0)
-
-        def Cube "Box"
-        {
-            double size = 2
-        }
-    }
-
-    def DistantLight "Sun"
-    {
-        float inputs:intensity = 1
-    }
-}
-"""
+TINY_SCENE = moving_body_stage('def Cube "Box"\n        {\n            double size = 2\n        }', end_time=2,
+                               vertical_aperture=27)
 
 BAD_SCENE = """#usda 1.0
 (
@@ -450,15 +417,50 @@ def test_inspect_pixel_out_of_range(sample_exr, capsys, pixel):
     assert_usage_error(code, err, "outside")
 
 
+def _pixels_of(png: Path, colour) -> np.ndarray:
+    """Mask of the PNG's pixels within 1/255 of ``colour`` (matplotlib writes 8 bits)."""
+    import matplotlib.image
+
+    rgb = matplotlib.image.imread(png)[..., :3]
+    return (np.abs(rgb - np.asarray(colour[:3])) <= 1.0 / 255).all(axis=-1)
+
+
+def _check_false_colour_png(png: Path, cmap_name: str, value_at: float) -> None:
+    """The sample's left half (its hits) in the colour map at ``value_at``, its right half
+    (background) in grey, side by side and of equal size; and a colour bar right of them:
+    the map's low end (only in the bar) below its high end, the middle between them."""
+    import matplotlib
+
+    cmap = matplotlib.colormaps[cmap_name]
+    hits, grey = _pixels_of(png, cmap(value_at)), _pixels_of(png, (0.5, 0.5, 0.5))
+    assert hits.shape[1] >= 500, hits.shape  # the picture alone is at least 5 inches at 100 dpi
+    # a data pixel is tens of PNG pixels wide; the hit half and the background half match
+    assert hits.sum() > 10000 and abs(int(hits.sum()) - int(grey.sum())) < 0.05 * grey.sum(), (hits.sum(), grey.sum())
+    hit_cols, grey_cols = np.median(np.nonzero(hits)[1]), np.median(np.nonzero(grey)[1])
+    assert hit_cols < grey_cols, "hits must be left of the background"
+    # the bar's ends are drawn with an edge; 5% in from each end every map entry is ~1 row
+    low, mid, high = (_pixels_of(png, cmap(x)) for x in (0.05, 0.5, 0.95))
+    assert low.sum() > 10, "no colour bar (the map's low end is nowhere)"
+    cols = np.nonzero(low)[1]
+    assert cols.min() > grey_cols, "the colour bar must be right of the image"
+    bar = slice(cols.min(), cols.max() + 1)  # the bar's columns (antialiased text elsewhere matches too)
+    rows = [np.nonzero(m[:, bar])[0].mean() for m in (high, mid, low)]
+    assert rows[0] < rows[1] < rows[2], rows  # image rows grow downwards: high on top
+
+
 def test_inspect_png(sample_exr, tmp_path, capsys):
-    """--channel NAME --png OUT.png writes a PNG (checked by its signature)."""
+    """--channel NAME --png OUT.png writes a PNG (its signature) that shows the channel:
+    Doppler 1.5 on the hits is the top of the RdBu log scale centred on 1 (the scale spans
+    [1/1.5, 1.5]); eventTime, a single value t - t_c = -7.5, is the middle of viridis
+    (the one value is widened to ±0.5); background grey; a colour bar in map order."""
     png = tmp_path / "doppler.png"
     code, _, err = run(capsys, "inspect", str(sample_exr), "--channel", "spacetime.doppler", "--png", str(png))
     assert code == 0, err
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    _check_false_colour_png(png, "RdBu", 1.0)
     png2 = tmp_path / "time.png"
     assert run(capsys, "inspect", str(sample_exr), "--channel", "spacetime.eventTime", "--png", str(png2))[0] == 0
-    assert png2.stat().st_size > 0
+    _check_false_colour_png(png2, "viridis", 0.5)
 
 
 def test_inspect_bad_input(sample_exr, tmp_path, capsys):

@@ -1,24 +1,18 @@
 """examples/sweep_beta.py: the apparent ends of rods moving at beta, measured from rendered
 images, agree with the closed form to within half a pixel, and the closed form agrees with
 the float64 retarded-time oracle of warp_st.core.lorentz."""
-import importlib.util
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
+from example_scripts import load_example
 
 from warp_st.core import lorentz
-
-EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "sweep_beta.py"
 
 
 @pytest.fixture(scope="module")
 def example():
-    spec = importlib.util.spec_from_file_location("sweep_beta", EXAMPLE)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_example("sweep_beta.py")
 
 
 @pytest.mark.parametrize("beta", [0.0, 0.1, 0.5, 0.9, 0.99])

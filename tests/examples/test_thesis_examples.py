@@ -10,23 +10,14 @@ the pixel bound is tighter). Quick mode renders at 320 x 240 or less.
 """
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
-from pathlib import Path
 
 import pytest
-
-THESIS = Path(__file__).resolve().parents[2] / "examples" / "thesis"
+from example_scripts import load_example
 
 
 def _load(name):
-    if str(THESIS) not in sys.path:
-        sys.path.insert(0, str(THESIS))
-    spec = importlib.util.spec_from_file_location(f"thesis_{name}", THESIS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_example(f"thesis/{name}.py")
 
 
 def _rows(name):
@@ -112,6 +103,7 @@ def test_example_main_prints_the_table(capsys):
     assert _load("flange_terrell").main(["--quick"]) == 0
     out = capsys.readouterr().out
     assert "| quantity | measured | expected (closed form) |" in out
+    assert "$ python examples/thesis/flange_terrell.py --quick" in out
     assert "11/11 within tolerance" in out
 
 

@@ -6,14 +6,14 @@ from tracing_helpers import sphere_body
 
 from warp_st.core.scene import CameraState, Material, RenderSettings, Scene
 from warp_st.kernels.spectrum import PRIMARY_NM, cmf_rgb_np, doppler_transform_np, make_spectrum, spectral_basis_inverse
-from warp_st.rendering.renderer import Renderer, _warp
+from warp_st.rendering.renderer import Renderer, init_warp
 
 
 def test_kernel_transform_matches_float64_twin():
     """The Warp function equals its float64 NumPy twin on 2,000 seeded random colours and
     Doppler factors 0.2..5 (all flag combinations). Tolerance 1e-5 relative: float32
     evaluation of exp() lobes and a 3x3 product, values O(1) (times D^4 <= 625)."""
-    _warp()
+    init_warp()
     vec3, mat33 = wp.types.vector(3, wp.float32), wp.types.matrix((3, 3), wp.float32)
     transform = make_spectrum(wp.float32, vec3, mat33)
 

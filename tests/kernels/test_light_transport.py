@@ -17,6 +17,7 @@ physical reflection backwards in time.
 import functools
 import importlib.util
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +27,7 @@ from analytic_scenes import look_at, pixel_directions
 
 from warp_st.core import lorentz, tessellate
 from warp_st.core.scene import Body, CameraState, Light, Material, RenderSettings, Scene, Surface
-from warp_st.rendering.renderer import Renderer, _warp
+from warp_st.rendering.renderer import Renderer, init_warp
 
 ROOT = Path(__file__).resolve().parents[2]
 EPS32 = float(np.finfo(np.float32).eps)
@@ -138,7 +139,7 @@ def _reflect_kernel(precision):
     from warp_st.kernels.shade import make_shade
     from warp_st.kernels.trace import make_trace
 
-    _warp()
+    init_warp()
     scalar = {"float32": wp.float32, "float64": wp.float64}[precision]
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
@@ -774,11 +775,40 @@ def test_fig_4_6_flange_stages_differ_only_by_mode():
         assert abs(t - t_inf - 18.675) < 1e-9
 
 
-def test_mirrored_flanges_example_quick(tmp_path):
-    """The example renders its 3 x 5 strip (quick: tiny tiles) to one PNG."""
+def test_mirrored_flanges_example_quick(tmp_path, monkeypatch):
+    """The example renders its 3 x 5 strip (quick: 64 x 48 tiles) into one PNG: the PNG
+    holds the strip unscaled (to 1/255: 8-bit sRGB), each tile is the beauty of its mode's
+    stage at its frame rendered on its own (warp_st.render, sRGB-encoded as in the
+    example: the strip's one database per mode changes nothing), and the tiles differ
+    from row to row (the three modes) and from column to column (the frames)."""
+    import matplotlib.image
+
+    import warp_st
+
     spec = importlib.util.spec_from_file_location("mirrored_flanges", ROOT / "examples" / "mirrored_flanges.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
+    made = []
+    render_strip = module.render_strip
+    monkeypatch.setattr(module, "render_strip", lambda *a, **k: made.append(render_strip(*a, **k)) or made[-1])
     out = tmp_path / "strip.png"
     assert module.main(["--quick", "--out", str(out)]) == 0
-    assert out.stat().st_size > 1000
+    strip = made[0][0].astype(int)
+    h, w = 48, 64
+    assert strip.shape == (3 * h, 5 * w, 3)
+    png = (matplotlib.image.imread(out)[..., :3] * 255).round().astype(int)
+    where = [(y, x) for y in range(png.shape[0] - strip.shape[0] + 1) for x in range(png.shape[1] - strip.shape[1] + 1)
+             if np.abs(png[y, x:x + 8] - strip[0, :8]).max() <= 1
+             and np.abs(png[y:y + strip.shape[0], x:x + strip.shape[1]] - strip).max() <= 1]
+    assert len(where) == 1, f"the strip is not in the PNG at 1:1 ({len(where)} places)"
+    tiles = strip.reshape(3, h, 5, w, 3).transpose(0, 2, 1, 3, 4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the stages' unsupported material inputs
+        scenes = [warp_st.load(ROOT / "usd_scenes" / "mirrors" / f"flanges_{m}.usda") for m, _ in module.MODES]
+    for r, scene in enumerate(scenes):
+        for c, frame in enumerate(module.FRAMES):
+            alone = module.to_srgb(warp_st.render(scene, frame=frame, width=w, height=h).rgba[..., :3]).astype(int)
+            assert np.abs(alone - tiles[r, c]).max() <= 1, (r, c)
+    step = lambda a, b: np.abs(a - b).mean()  # noqa: E731 - mean 8-bit difference of two tiles
+    assert all(step(tiles[r, c], tiles[r, c + 1]) > 5 for r in range(3) for c in range(4)), "frames look alike"
+    assert all(step(tiles[r, c], tiles[r + 1, c]) > 5 for r in range(2) for c in range(5)), "modes look alike"

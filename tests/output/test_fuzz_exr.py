@@ -12,25 +12,33 @@ never another exception, exit 1, a signal, a hang or unbounded memory.
   library would fail the test and name the case;
 - well-formed but odd files written with OpenEXR (hypothesis): random channel subsets
   and pixel types, odd header values (timeOrigin NaN / inf / a string), 1-pixel images.
+  Here the outcome is known in advance: a SceneError exactly when a docs/spec.md §4
+  channel has the wrong pixel type (UINT against FLOAT) or a header time is not a
+  number; otherwise the Image carries the header doubles as the file stores them (a
+  Python float is written as an EXR float, a float64 array as a double) and the event
+  times are channel + timeOrigin; ``inspect`` exits 0 on such a file (2 for ``--channel
+  Z`` exactly when there is no Z), and 2 naming the file on the others.
+
+Seeds: a fresh one each run, printed in the terminal summary; ``WARP_ST_FUZZ_SEED=N``
+replays run N (tests/fuzz_helpers.py).
 """
 from __future__ import annotations
 
 import contextlib
 import io
-import random
 from pathlib import Path
 
+import fuzz_helpers as fuzz
 import numpy as np
 import OpenEXR
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
-from test_fuzz_usd import STATS, _fuzz_report, budget, corrupt, fuzz_settings, run_worker, single_stage  # noqa: F401
 
 import warp_st
 from warp_st.commands import cli
 from warp_st.core.scene import SceneError
-from warp_st.output.film import CHANNEL_NAMES, Image
+from warp_st.output.film import CHANNEL_NAMES, Image, channel_spec
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -38,7 +46,7 @@ ROOT = Path(__file__).resolve().parents[2]
 def _seeds(directory: Path) -> list[Path]:
     """A rendered warp_st frame (every channel, idManifest, metadata) and foreign files."""
     stage = directory / "seed.usda"
-    stage.write_text(single_stage())
+    stage.write_text(fuzz.single_stage())
     img = warp_st.render(warp_st.load(str(stage)), width=24, height=18)
     seeds = [directory / "seed_render.exr"]
     img.write_exr(seeds[0])
@@ -57,31 +65,31 @@ def _seeds(directory: Path) -> list[Path]:
     return seeds
 
 
-def _corruption_run(tmp_path: Path, n: int, seed: int, timeout: float) -> dict:
-    rng = random.Random(seed)
+def _corruption_run(tmp_path: Path, n: int, tag: str, timeout: float) -> dict:
+    rng = fuzz.fuzz_random(tag)
     seeds = _seeds(tmp_path)
     paths = []
     for i in range(n):
         src = seeds[i % len(seeds)]
-        data, op = corrupt(src.read_bytes(), rng, hot=512)
+        data, op = fuzz.corrupt(src.read_bytes(), rng, hot=512)
         path = tmp_path / f"case{i:05d}_{op}.exr"
         path.write_bytes(data)
         paths.append(path)
-    counts = run_worker("exr", paths, tmp_path / "results.jsonl", timeout)
-    STATS["corrupt.exr"] = STATS.get("corrupt.exr", 0) + n
+    counts = fuzz.run_worker("exr", paths, tmp_path / "results.jsonl", timeout)
+    fuzz.count("corrupt.exr", n)
     return counts
 
 
 def test_corrupted_exr_bytes(tmp_path):
     """Random byte corruption of EXR files: read_exr / read_header / is_complete_exr and
     three ``warp-st inspect`` forms obey the law, in a child process."""
-    counts = _corruption_run(tmp_path, budget(40), seed=11, timeout=300)
-    assert sum(counts.values()) == budget(40)
+    counts = _corruption_run(tmp_path, fuzz.budget(40), "exr", timeout=300)
+    assert sum(counts.values()) == fuzz.budget(40)
 
 
 @pytest.mark.slow
 def test_corrupted_exr_bytes_many(tmp_path):
-    counts = _corruption_run(tmp_path, budget(3000), seed=12, timeout=3000)
+    counts = _corruption_run(tmp_path, fuzz.budget(3000), "exr-many", timeout=3000)
     print("exr", counts)
 
 
@@ -120,27 +128,84 @@ def _inspect(*argv) -> tuple[int, str]:
     return code, err.getvalue()
 
 
+#: The header doubles read_exr returns, and what it returns when the file has none.
+_HEADER_DOUBLES = {"spacetime:timeOrigin": 0.0, "spacetime:cameraTime": None, "spacetime:frame": float("nan")}
+
+
+def _expected_header(header: dict, planes: dict):
+    """(time origin, camera time, frame) read_exr must return, or None for a SceneError.
+
+    None when a docs/spec.md §4 channel has the wrong kind of pixels (UINT against FLOAT)
+    or a header time is a string. The values are what the file stores: the binding
+    writes a Python float as an EXR float (so 1e300 becomes inf) and a float64 array
+    as a double; the camera time defaults to the time origin."""
+    for name, plane in planes.items():
+        if name in CHANNEL_NAMES and (channel_spec(name).pixel_type == "UINT") != (plane.dtype == np.uint32):
+            return None
+    values = []
+    for key, default in _HEADER_DOUBLES.items():
+        value = header.get(key)
+        if isinstance(value, str):
+            return None
+        if value is None:
+            values.append(values[0] if default is None else default)
+        elif isinstance(value, np.ndarray):
+            values.append(float(value[0]))
+        else:
+            with np.errstate(over="ignore"):
+                values.append(float(np.float32(value)))
+    return tuple(values)
+
+
+def _same(a: float, b: float) -> bool:
+    return a == b or (np.isnan(a) and np.isnan(b))
+
+
 def _odd_case(directory: Path, header: dict, planes: dict) -> None:
     path = directory / "odd.exr"
     if not planes:
         return  # OpenEXR writes no file without channels
-    OpenEXR.File(header, planes).write(str(path))
+    expected = _expected_header(header, planes)
+    stored_times = planes.get("spacetime.eventTime")
+    has_z = "Z" in planes
+    OpenEXR.File(dict(header), dict(planes)).write(str(path))
     try:
         img = warp_st.read_exr(path)
-        assert isinstance(img, Image)
-        assert not np.isnan(img.time_origin) or True
     except SceneError as exc:
+        assert expected is None, f"read_exr refused a readable file: {exc}"
         assert path.name in str(exc) and "\n" not in str(exc), str(exc)
+        img = None
+    if img is not None:
+        assert expected is not None, "read_exr accepted a file with a wrong channel type or header time"
+        origin, camera, frame = expected
+        assert isinstance(img, Image)
+        assert _same(img.time_origin, origin) and _same(img.camera_time, camera) and _same(img.frame, frame), (
+            (img.time_origin, img.camera_time, img.frame), expected)
+        if stored_times is not None:  # absolute = stored float32 + timeOrigin (docs/spec.md §4)
+            with np.errstate(invalid="ignore"):
+                want = stored_times.astype(np.float32).astype(np.float64) + origin
+            np.testing.assert_array_equal(img.event_time, want)
     assert isinstance(warp_st.output.exr.is_complete_exr(path), bool)
     for argv in ((path,), (path, "--pixel", 0, 0), (path, "--channel", "Z")):
         code, err = _inspect(*argv)
-        assert code in (0, 2), err
+        want = 0 if img is not None else 2
+        if img is not None and argv[1:2] == ("--channel",) and not has_z:
+            want = 2
+        assert code == want, (argv, code, err)
         if code == 2:
-            assert len(err.strip().splitlines()) == 1, err
-    STATS["odd.exr"] = STATS.get("odd.exr", 0) + 1
+            lines = err.strip().splitlines()
+            assert len(lines) == 1 and path.name in lines[0], err
+    fuzz.count("odd.exr")
 
 
-@fuzz_settings(60)
+#: Always tried first: a double timeOrigin far from 0 and no cameraTime, a float frame.
+_EXPLICIT = ({"type": OpenEXR.scanlineimage, "compression": OpenEXR.ZIP_COMPRESSION,
+              "spacetime:timeOrigin": np.array([1e6 + 0.25]), "spacetime:frame": 7.0},
+             {"spacetime.eventTime": np.full((2, 3), -1.5, np.float32), "objectId": np.ones((2, 3), np.uint32)})
+
+
+@fuzz.fuzz_settings(60)
+@example(case=_EXPLICIT)
 @given(case=odd_exr())
 def test_odd_but_well_formed_exr(tmp_path_factory, case):
     """Random channel subsets / pixel types / header values: an Image or a SceneError naming

@@ -13,19 +13,19 @@ relationships to missing or wrong prims, attributes of the wrong type) ends, thr
 never another exit status or a traceback. ``validate`` exits 2 exactly when render
 does (a stage it passes renders; one it refuses, render refuses too), except that only
 render checks that the output folders exist (they depend on where it runs). Budget: 60 cases
-(``WARP_ST_FUZZ_SCALE`` multiplies it, ``WARP_ST_FUZZ_RANDOM=1`` draws new ones).
+(``WARP_ST_FUZZ_SCALE`` multiplies it). Each run draws a fresh seed, printed in the terminal
+summary; ``WARP_ST_FUZZ_SEED=N`` replays run N (tests/fuzz_helpers.py).
 """
 from __future__ import annotations
 
 import os
 
 import OpenEXR
-from hypothesis import HealthCheck, given, settings
+from fuzz_helpers import count, fuzz_settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from warp_st.commands.cli import main
-
-SCALE = float(os.environ.get("WARP_ST_FUZZ_SCALE", "1"))
 
 WORLD = '''#usda 1.0
 (
@@ -103,11 +103,10 @@ def _run(capsys, argv):
     return code, out, err
 
 
-@settings(max_examples=max(1, int(60 * SCALE)), deadline=None, database=None,
-          derandomize=os.environ.get("WARP_ST_FUZZ_RANDOM") is None,  # CI: the same cases every run
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@fuzz_settings(60)
 @given(text=stages())
 def test_products_render_or_name_the_file(tmp_path_factory, capsys, text):
+    count("products")
     folder = tmp_path_factory.mktemp("products")
     stage = folder / "shot.usda"
     stage.write_text(text, encoding="utf-8")

@@ -87,6 +87,13 @@ CASES = [
     SphereCase(name="coupled_diag_0.9_t1e6_x1e4", velocity=tuple(0.9 * DIAG), center=(1.0e4, 1.0e4, 1.0e4 - 6.0),
                t_ref=1.0e6, cam_time=1.0e6 + 6.0, cam_pos=(1.0e4, 1.0e4, 1.0e4)),
     seen_at_centre("decoupled_x_1.5_infinite_c", 1.5 * X, decoupled=True, light_speed="infinite"),
+    # float64 kernels at t = 1e6 (positions 1e4) and at beta = 0.999999. The slack is eps64's,
+    # but the tessellation band [s_outer, s_inner] is wider than float32's error here, so
+    # these check the float64 path's geometry; that float64 is more exact than float32 is
+    # shown on an exact plane (tests/usd/test_precision_setting.py)
+    SphereCase(name="coupled_diag_0.9_t1e6_x1e4_float64", velocity=tuple(0.9 * DIAG), center=(1.0e4, 1.0e4, 1.0e4 - 6.0),
+               t_ref=1.0e6, cam_time=1.0e6 + 6.0, cam_pos=(1.0e4, 1.0e4, 1.0e4), precision="float64"),
+    seen_at_centre("coupled_x_0.999999_float64", 0.999999 * X, precision="float64"),
 ]
 
 
@@ -176,24 +183,33 @@ def test_depth_and_event_time(case, renders):
                                     ("t_inner", orc.inner.event_time))
 
 
+def _proper_time_slack(case, s, a, scale=1.0):
+    """Float slack of the proper time: γ(1+|v|) ε_s (scaled by ``scale``) + 64 eps γ
+    (|t_c - t_ref| + |c - o|) for forming t - t_ref and x - o, + float32 storage of a."""
+    eps_s, eps = _slack(case, s)
+    beta = case.beta
+    g = 1.0 if case.decoupled else 1.0 / math.sqrt(1.0 - beta * beta)
+    stretch = g * (1.0 + beta) if not case.decoupled else 1.0
+    offset = abs(case.cam_time - case.t_ref) + float(np.linalg.norm(np.subtract(case.cam_pos, case.center)))
+    return stretch * eps_s * scale + 64.0 * eps * g * offset + 2.0 * EPS32 * np.abs(a)
+
+
+def _check_proper_time(case, img, select, a, b, eps_tau, what=" proper time"):
+    """τ rendered on the pixels ``select`` lies in [min(a, b), max(a, b)] ± eps_tau."""
+    tau = np.asarray(img.proper_time, dtype=np.float64)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    bad = select & ~((tau >= lo - eps_tau) & (tau <= hi + eps_tau))
+    assert not bad.any(), _describe(case.name + what, bad, ("tau", tau), ("tau_a", a), ("tau_b", b))
+
+
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
 def test_proper_time(case, renders):
     """docs/spec.md §2 proper time at the hit lies between its closed-form values on the outer
     and inner balls (τ is affine in s), ± the float slack γ(1+|v|) ε_s + 64 eps γ
     (|t_c - t_ref| + |c - o|)."""
     img, orc = renders(case)
-    inside = _interior(orc)
-    tau = np.asarray(img.proper_time, dtype=np.float64)
     a, b = orc.outer.proper_time, orc.inner.proper_time
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    eps_s, eps = _slack(case, orc.outer.s)
-    beta = case.beta
-    g = 1.0 if case.decoupled else 1.0 / math.sqrt(1.0 - beta * beta)
-    stretch = g * (1.0 + beta) if not case.decoupled else 1.0
-    offset = abs(case.cam_time - case.t_ref) + float(np.linalg.norm(np.subtract(case.cam_pos, case.center)))
-    eps_tau = stretch * eps_s + 64.0 * eps * g * offset + 2.0 * EPS32 * np.abs(a)  # + float32 storage
-    bad = inside & ((tau < lo - eps_tau) | (tau > hi + eps_tau))
-    assert not bad.any(), _describe(case.name + " proper time", bad, ("tau", tau), ("tau_outer", a), ("tau_inner", b))
+    _check_proper_time(case, img, _interior(orc), a, b, _proper_time_slack(case, orc.outer.s, a))
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
@@ -252,6 +268,19 @@ def test_moving_camera_aberration(case, renders):
     assert not bad.any(), _describe(case.name + " doppler", bad, ("D", D), ("D_oracle", orc.outer.doppler))
 
 
+@pytest.mark.parametrize("case", CAMERA_CASES, ids=[c.name for c in CAMERA_CASES])
+def test_moving_camera_proper_time(case, renders):
+    """docs/spec.md §2 with a moving camera: τ is still the hit body's proper time at the hit
+    event, which the camera's aberration and its own position choose. Between lorentz's
+    values at the outer and inner balls' hits along the aberrated pixel directions, with
+    the lookback slack widened by 2 γ_c as in test_moving_camera_aberration."""
+    img, orc = renders(case)
+    a, b = orc.outer.proper_time, orc.inner.proper_time
+    assert np.ptp(a[np.isfinite(a)]) > 0.1, "the case must show proper time varying over the sphere"
+    gc = 1.0 / math.sqrt(1.0 - float(np.dot(case.cam_velocity, case.cam_velocity)))
+    _check_proper_time(case, img, _interior(orc), a, b, _proper_time_slack(case, orc.outer.s, a, 2.0 * gc))
+
+
 # --------------------------------------------------------------------------- lifetimes
 
 LIFETIME_CASES = [
@@ -290,6 +319,28 @@ def test_lifetime_caps_are_open(case, renders):
     bad = sel & ((z < exp.s_lo - eps_s) | (z > exp.s_hi + eps_s))
     assert not bad.any(), _describe(case.name + " depth with lifetime", bad, ("Z", z), ("s_lo", exp.s_lo),
                                     ("s_hi", exp.s_hi), ("far_wall", exp.far_wall))
+
+
+@pytest.mark.parametrize("case", LIFETIME_CASES, ids=[c.name for c in LIFETIME_CASES])
+def test_lifetime_proper_time(case, renders):
+    """With a lifetime the hit may be the inside of the far wall: τ is the body's proper
+    time at that later-seen, earlier event. On every certain hit (analytic_scenes.
+    lifetime_expectation) τ lies between lorentz.proper_time at the events t_c - s, c + s n
+    of the interval's ends [s_lo, s_hi] (τ is affine in s), ± the usual slack, on the
+    near side and on the far wall alike."""
+    img, orc = renders(case)
+    exp = AS.lifetime_expectation(case, orc.cam, lambda s: _slack(case, s)[0])
+    sel = exp.certain & exp.hit
+    cam = AS.camera_position(case)
+
+    def tau_at(s):
+        event = np.concatenate([(case.cam_time - s)[..., None], cam + s[..., None] * orc.dirs_lab], axis=-1)
+        return lorentz.proper_time(event, np.asarray(case.center), case.t_ref, np.asarray(case.velocity),
+                                   decoupled=case.decoupled)
+
+    a, b = tau_at(np.nan_to_num(exp.s_lo)), tau_at(np.nan_to_num(exp.s_hi))
+    assert (sel & exp.far_wall).sum() > 50 and (sel & ~exp.far_wall).sum() > 50, "case does not exercise the caps"
+    _check_proper_time(case, img, sel, a, b, _proper_time_slack(case, np.nan_to_num(exp.s_hi), a), " lifetime proper time")
 
 
 # --------------------------------------------------------------------------- public API

@@ -2,10 +2,12 @@
 them, and large absolute coordinates cost no accuracy."""
 import dataclasses
 
+import analytic_scenes as AS
 import numpy as np
 import pytest
 from tracing_helpers import cube_body, sphere_body
 
+from warp_st.core import lorentz
 from warp_st.core.scene import Body, CameraState, Light, Material, RenderSettings, Scene, Surface
 from warp_st.rendering.renderer import Renderer
 
@@ -100,14 +102,63 @@ def test_degenerate_triangles_change_nothing():
         assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name
 
 
+def _box_entry(n, centre, half, v, t_ref):
+    """Closed form: the first and last lookback (s_in, s_out) of each past null ray
+    E(s) = (-s, s n) from the camera event (0, 0) inside a coupled box of half-size
+    ``half`` (authored axis-aligned, pivot ``centre`` at t_ref, velocity v); NaN on a miss.
+
+    In the body's rest frame the ray's position is affine in s: the lab offset from the
+    pivot's worldline at lab time -s, x - c - v (-s - t_ref), un-contracted (its part
+    along v times γ: docs/spec.md §2 read backwards). So each axis of the box is a slab
+    [s_lo, s_hi] in s and the ray is inside where all three overlap (the slab method)."""
+    v = np.asarray(v, float)
+
+    def body_frame(s):
+        off = s[..., None] * n - np.asarray(centre, float) - v * (-s - t_ref)[..., None]
+        return lorentz.uncontract(off, v) if np.any(v) else off
+
+    zero = np.zeros(n.shape[:-1])
+    a = body_frame(zero)
+    b = body_frame(zero + 1.0) - a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1, t2 = (-half - a) / b, (half - a) / b
+    flat = b == 0.0  # a ray parallel to a slab: inside it for every s, or never
+    lo = np.where(flat, np.where(np.abs(a) <= half, -np.inf, np.inf), np.minimum(t1, t2))
+    hi = np.where(flat, np.where(np.abs(a) <= half, np.inf, -np.inf), np.maximum(t1, t2))
+    s_in, s_out = np.max(lo, axis=-1), np.min(hi, axis=-1)
+    hit = (s_in <= s_out) & (s_out >= 0.0)
+    return np.where(hit, np.maximum(s_in, 0.0), np.nan), np.where(hit, s_out, np.nan)
+
+
 @pytest.mark.parametrize("velocity", [(0, 0, 0), (0.7, 0, 0)])
 def test_grazing_rays_along_faces(velocity):
-    """A camera in the plane of a cube's top face looks along it: rays graze the face
-    exactly. Every pixel is either background or a finite hit on the cube's near face
-    region (s <= the far edge), never NaN."""
-    body = cube_body("/Cube", (0, -0.5, -5), 1.0, velocity)  # top face at y = 0, the camera's height
-    img = Renderer(_scene(body), frames=[0.0], width=64, height=49).render(0.0)
+    """A camera in the plane of a cube's top face looks along it: the centre row's rays
+    graze the face exactly. Against the closed form of the box (_box_entry, the slab
+    method in the body frame), for every pixel: a ray that enters the box shrunk by δ is
+    a hit at Z = s_in (between the entries of the grown and the shrunk box); a ray that
+    misses the box grown by δ is background; the others (the grazing row, the silhouette)
+    are background or a hit inside the grown box, never NaN. The moving cube is seen
+    where it is at t ≈ -5 (t_ref = -5), Lorentz-contracted and Terrell-rotated.
+    δ = 256 eps32 γ(1 + β)(s + size): float32 work about the camera event, coordinates
+    ~ s + size, stretched by up to γ(1 + β) in the body frame (as in test_analytic_sphere)."""
+    centre, size = np.array([0.0, -0.5, -5.0]), 1.0
+    body = cube_body("/Cube", centre, size, velocity, t_ref=-5.0)  # top face at y = 0, the camera's height
+    width, height = 64, 49
+    img = Renderer(_scene(body), frames=[0.0], width=width, height=height).render(0.0)
     _assert_spec_backgrounds(img)
-    row = img.object_id[24]  # the row of rays in the face's plane
-    assert np.isfinite(img.depth[24][row > 0]).all()
-    assert (img.depth[24][row > 0] < 5.5 + 5.0).all()
+    cam = CameraState("/Camera", 0.0, np.zeros(3), np.eye(3), 30.0, 24.0, 18.0)
+    n = AS.pixel_directions(cam, width, height)
+    assert np.all(n[24, :, 1] == 0.0)  # row 24 of 49 is the plane y = 0 of the top face
+    beta = float(np.linalg.norm(velocity))
+    delta = 256 * AS.EPS32 * (1 + beta) / np.sqrt(1 - beta * beta) * (6.0 + size)
+    enter_shrunk, _ = _box_entry(n, centre, size / 2 - delta, velocity, -5.0)
+    enter_grown, leave_grown = _box_entry(n, centre, size / 2 + delta, velocity, -5.0)
+    sure_hit, sure_miss = np.isfinite(enter_shrunk), ~np.isfinite(enter_grown)
+    assert sure_hit.sum() > 50 and sure_miss.sum() > 50, "the cube must be in view"
+    assert not sure_hit[24].any(), "the grazing row must graze"
+    hit = img.object_id == 1
+    z = img.depth.astype(np.float64)
+    assert hit[sure_hit].all() and not hit[sure_miss].any()
+    assert np.all((z >= enter_grown - delta) & (z <= enter_shrunk + delta) | ~sure_hit)
+    maybe = hit & ~sure_hit
+    assert np.all((z[maybe] >= enter_grown[maybe] - delta) & (z[maybe] <= leave_grown[maybe] + delta))

@@ -21,7 +21,7 @@ Laws checked, each against the closed-form sphere (``warp_st.core.lorentz.sphere
   (no bound on the retarded stretch) keep it; other surfaces are never touched;
 - re-tessellating at the reader's default reproduces the reader's surface bit for bit.
 
-Error measures (``warp_st.bench.sphere_errors``): silhouette = the largest image-plane
+Error measures (``warp_st.testing.sphere_errors``): silhouette = the largest image-plane
 distance from a pixel whose hit/miss differs from the exact sphere's to the exact outline
 (located by bisection on the oracle); depth = how far each rendered hit event lies off
 the exact sphere in the body frame, in pixel footprints. The polyhedron lies between the
@@ -33,32 +33,22 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import analytic_scenes as AS
 import numpy as np
 import pytest
 
 import warp_st
-from warp_st import bench
-from warp_st.bench import SphereView, render_view, sphere_errors
 from warp_st.core import tessellate
 from warp_st.core.scene import Material
 from warp_st.rendering.renderer import Renderer
 from warp_st.spacetime.adaptive import adapt_sphere_tessellation, retessellate_sphere
+from warp_st.testing import SphereView, render_view, sphere_errors, sphere_view_scene
 
 HALF_PIXEL = 0.5
 
 
 def _chosen(view: SphereView, **kw) -> int:
-    r = Renderer(bench.sphere_view_scene(view), frames=[view.t_c], width=view.width, height=view.height, **kw)
+    r = Renderer(sphere_view_scene(view), frames=[view.t_c], width=view.width, height=view.height, **kw)
     return r.sphere_segments["/Sphere"]
-
-
-def test_bench_pinhole_is_the_spec_pinhole():
-    """The error measures use bench.pixel_directions; it must be the docs/spec.md §3 pinhole the
-    analytic tests use (written independently in tests/analytic_scenes.py)."""
-    view = SphereView(width=40, height=30)
-    cam = view.camera()
-    np.testing.assert_allclose(bench.pixel_directions(cam, 40, 30), AS.pixel_directions(cam, 40, 30), atol=1e-15)
 
 
 @pytest.mark.parametrize("size", [(96, 72), (400, 300)])
@@ -68,7 +58,7 @@ def test_bench_pinhole_is_the_spec_pinhole():
 def test_chosen_level_stays_within_half_a_pixel(size, velocity, decoupled):
     w, h = size
     view = SphereView(width=w, height=h, segments=None, velocity=velocity, decoupled=decoupled)
-    r, img, _kern, _ctor = render_view(view)
+    r, img = render_view(view)
     n = r.sphere_segments["/Sphere"]
     err = sphere_errors(img, view, segments=n)
     assert err["pixels_exact"] > 200  # the sphere covers a fair part of the image
@@ -80,7 +70,7 @@ def test_chosen_level_stays_within_half_a_pixel(size, velocity, decoupled):
         assert err["depth_px"] > HALF_PIXEL / 3, err
     # and the render is the same as rendering that fixed tessellation
     fixed = dataclasses.replace(view, segments=n)
-    _r2, img2, _k2, _c2 = render_view(fixed)
+    _r2, img2 = render_view(fixed)
     assert np.array_equal(img.depth, img2.depth, equal_nan=True)
 
 
@@ -102,7 +92,7 @@ def test_sequence_gets_the_level_of_its_nearest_frame():
     see it nearer (at half the distance 20 later). One database for both frames must use
     the nearer frame's level."""
     view = SphereView(width=200, height=150, segments=None, velocity=(0.0, 0.0, 0.5), distance=40.0, hfov_deg=30.0)
-    scene = bench.sphere_view_scene(view)
+    scene = sphere_view_scene(view)
     kw = dict(width=view.width, height=view.height)
     early = Renderer(scene, frames=[view.t_c], **kw).sphere_segments["/Sphere"]
     late = Renderer(scene, frames=[view.t_c + 20.0], **kw).sphere_segments["/Sphere"]
@@ -112,7 +102,7 @@ def test_sequence_gets_the_level_of_its_nearest_frame():
 
 def test_mirror_spheres_never_go_below_the_default():
     view = SphereView(width=48, height=36, segments=None, distance=30.0)
-    scene = bench.sphere_view_scene(view)
+    scene = sphere_view_scene(view)
     body = scene.bodies[0]
     mirror = dataclasses.replace(body, surfaces=(dataclasses.replace(body.surfaces[0], material=Material(metallic=1.0)),))
     scene = dataclasses.replace(scene, bodies=(mirror,))
@@ -123,17 +113,16 @@ def test_mirror_spheres_never_go_below_the_default():
 
 def test_superluminal_decoupled_sphere_keeps_the_reader_tessellation():
     view = SphereView(width=48, height=36, segments=None, velocity=(1.5, 0.0, 0.0), decoupled=True)
-    r = Renderer(bench.sphere_view_scene(view), frames=[view.t_c], width=48, height=36)
+    r = Renderer(sphere_view_scene(view), frames=[view.t_c], width=48, height=36)
     assert "/Sphere" not in r.sphere_segments
     n = tessellate.DEFAULT_SPHERE_SEGMENTS
     assert r.stats.tetrahedra % (3 * n * (n - 2)) == 0  # whole prisms of the 64-segment mesh
 
 
 def test_surfaces_without_an_analytic_sphere_are_untouched():
-    scene = bench.cube_cloud_scene(8)
-    out, chosen = adapt_sphere_tessellation(scene, [scene.camera_state("/Camera", 0.0)], width=64, height=36)
-    assert out is scene and chosen == {}
-    fixed = bench.sphere_view_scene(SphereView(segments=32))  # a tessellated mesh, no analytic sphere
+    fixed = sphere_view_scene(SphereView(segments=32))  # a tessellated mesh, no analytic sphere
+    out, chosen = adapt_sphere_tessellation(fixed, [fixed.camera_state("/Camera", 6.0)], width=64, height=36)
+    assert out is fixed and chosen == {}
     assert Renderer(fixed, frames=[6.0], width=32, height=24).sphere_segments == {}
 
 

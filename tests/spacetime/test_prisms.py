@@ -3,14 +3,13 @@
 A prism is one triangle moving rigidly with its body's velocity over a time segment;
 it is exactly the union of the three tetrahedra the general path tests, so both must
 report the same closest hits and render the same images. The tetrahedral path is
-itself checked against brute force and a float64 oracle in test_tracing.py.
+itself checked against brute force and a float64 oracle in tests/accel/test_tracing.py.
 """
 from pathlib import Path
 
 import numpy as np
 import pytest
-from test_tracing import _mixed_scene, _random_rays, _windows
-from tracing_helpers import Database
+from tracing_helpers import Database, mixed_scene, random_rays, tube_windows
 
 import warp_st
 
@@ -24,13 +23,13 @@ def test_prism_hits_equal_tetrahedron_hits(finite):
     computed two ways (comoving triangle vs 4D barycentrics), so it agrees to float64
     rounding of coordinates ~10 (1e-9 is 1e5 ulps of headroom). Triangles may differ only
     where the hit is on an edge shared by two triangles (then s agrees anyway)."""
-    scene = _mixed_scene()
-    windows = _windows(scene)
+    scene = mixed_scene()
+    windows = tube_windows(scene)
     prism = Database(scene, windows, precision="float64", primitive="prism", origin=(-3, 0, 0, 0))
     tet = Database(scene, windows, precision="float64", primitive="tet", origin=(-3, 0, 0, 0))
     assert prism.mesh.prim_count * 3 == tet.mesh.prim_count
     rng = np.random.default_rng(21 + finite)
-    origins, dirs = _random_rays(rng, 20000, tet, finite)
+    origins, dirs = random_rays(rng, 20000, tet, finite)
     p_idx, p_s, _ = prism.cast(origins, dirs, finite=finite, brute=True)
     t_idx, t_s, _ = tet.cast(origins, dirs, finite=finite, brute=True)
     hit = t_idx >= 0
@@ -44,10 +43,10 @@ def test_prism_hits_equal_tetrahedron_hits(finite):
 @pytest.mark.parametrize("precision", ["float32", "float64"])
 def test_prism_bvh_equals_brute_force(precision):
     """The BVH over prisms (boxes of the widened spans) culls nothing it should not."""
-    scene = _mixed_scene()
-    db = Database(scene, _windows(scene), precision=precision, primitive="prism", origin=(-3, 0, 0, 0))
+    scene = mixed_scene()
+    db = Database(scene, tube_windows(scene), precision=precision, primitive="prism", origin=(-3, 0, 0, 0))
     rng = np.random.default_rng(5)
-    origins, dirs = _random_rays(rng, 12000, db)
+    origins, dirs = random_rays(rng, 12000, db)
     b_idx, b_s, _ = db.cast(origins, dirs)
     f_idx, f_s, _ = db.cast(origins, dirs, brute=True)
     assert np.array_equal(b_idx >= 0, f_idx >= 0)

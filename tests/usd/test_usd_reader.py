@@ -504,14 +504,15 @@ def test_camera_state_survives_pickling(tmp_path):
 
 
 def test_camera_errors(tmp_path):
-    """Law: an unknown camera, a stage without cameras and a bad lightSpeed token are SceneErrors."""
+    """Law: an unknown camera, a stage with neither a camera nor geometry for the default
+    camera to frame, and a bad lightSpeed token are SceneErrors."""
     scene = load(tmp_path, CAMERA)
     with pytest.raises(SceneError) as e:
         scene.camera_state("/Nope", 0)
     assert_error(e, "scene.usda", "/Nope")
     with pytest.raises(SceneError) as e:
-        load(tmp_path, f'def Mesh "m" {{ {QUAD} }}').camera_state(None, 0)
-    assert_error(e, "scene.usda", "no camera")
+        load(tmp_path, 'def SphereLight "L" {\n}').camera_state(None, 0)
+    assert_error(e, "scene.usda", "nothing to render")
     bad = load(tmp_path, 'def Camera "C" {\n token spacetime:lightSpeed = "warp"\n}')
     with pytest.raises(SceneError) as e:
         bad.camera_state(None, 0)
@@ -606,7 +607,8 @@ def test_stage_metadata(tmp_path):
 # -- references ------------------------------------------------------------------------------
 def test_references_compose_and_no_references_skips_them(tmp_path):
     """Law: references compose by default; no_references=True reads only the file's own layers;
-    an unresolvable reference is an error unless references are skipped."""
+    an unresolvable reference is left out with a warning naming the layer and the asset
+    (what composed is read), and not even tried when references are skipped."""
     write(tmp_path, f'def Mesh "m" {{ {QUAD} }}', name="asset.usda")
     main = write(tmp_path, f'''
         def "A" (references = @./asset.usda@</m>) {{
@@ -614,11 +616,14 @@ def test_references_compose_and_no_references_skips_them(tmp_path):
         def Mesh "local" {{ {QUAD} }}''', name="main.usda")
     assert load_scene(main).body_paths() == ["/A", "/local"]
     assert load_scene(main, no_references=True).body_paths() == ["/local"]
-    broken = write(tmp_path, 'def "A" (references = @./missing.usda@</m>) {\n}', name="broken.usda")
-    with pytest.raises(SceneError) as e:
-        load_scene(broken)
-    assert_error(e, "broken.usda", "missing.usda")
-    assert load_scene(broken, no_references=True).bodies == ()
+    broken = write(tmp_path, f'def "A" (references = @./missing.usda@</m>) {{\n}}\ndef Mesh "local" {{ {QUAD} }}',
+                   name="broken.usda")
+    with pytest.warns(UserWarning) as caught:
+        scene = load_scene(broken)
+    assert scene.body_paths() == ["/local"]
+    assert [str(w.message) for w in caught] == [
+        f"{broken}: /A: reference @missing.usda@ (in broken.usda) cannot be opened: not composed"]
+    assert load_scene(broken, no_references=True).diagnostics[0].code == "DefaultCamera"
 
 
 # -- bad input ---------------------------------------------------------------------------------

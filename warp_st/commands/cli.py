@@ -18,7 +18,15 @@ import os
 import sys
 import traceback
 
-from warp_st.commands.common import PROG, UsageError, error, interrupted_status, interruption, terminate_as_interrupt
+from warp_st.commands.common import (
+    PROG,
+    UsageError,
+    closed_pipe_status,
+    error,
+    interrupted_status,
+    interruption,
+    terminate_as_interrupt,
+)
 from warp_st.core.frames import expand_output, format_frame, has_frame_pattern, parse_frames
 from warp_st.core.scene import SceneError
 
@@ -52,12 +60,6 @@ def build_parser() -> argparse.ArgumentParser:
     inspect.add_arguments(i)
     v = sub.add_parser("validate", help="load a scene and report what it contains", prog=f"{PROG} validate")
     validate.add_arguments(v)
-
-    from warp_st.bench import add_arguments as _bench_arguments  # no warp / pxr import until it runs
-
-    b = sub.add_parser("bench", help="measure speed against error; write docs/performance.md and plots",
-                       prog=f"{PROG} bench")
-    _bench_arguments(b)
     return parser
 
 
@@ -65,7 +67,12 @@ def main(argv: list[str] | None = None) -> int:
     """Run ``warp-st`` with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     with terminate_as_interrupt():
-        return _main(argv)
+        try:
+            status = _main(argv)
+            sys.stdout.flush()  # output that fit the buffer meets a closed pipe only here
+        except BrokenPipeError:
+            return closed_pipe_status()
+    return status
 
 
 def _main(argv: list[str]) -> int:
@@ -82,10 +89,6 @@ def _main(argv: list[str]) -> int:
             from warp_st.commands import inspect
 
             return inspect.run(args)
-        if args.command == "bench":
-            from warp_st import bench
-
-            return bench.run(bench._finish_args(args, parser.error))
         from warp_st.commands import validate
 
         return validate.run(args)
@@ -100,6 +103,8 @@ def _main(argv: list[str]) -> int:
     except KeyboardInterrupt as exc:
         print(f"{PROG}: {interruption(exc)}", file=sys.stderr)
         return interrupted_status(exc)
+    except BrokenPipeError:  # the reader of stdout went away: main() ends quietly
+        raise
     except OSError as exc:  # e.g. disk full while writing: not a bug, not bad input
         error(str(exc))
         if os.environ.get("WARP_ST_DEBUG"):

@@ -58,6 +58,24 @@ def terminate_as_interrupt():
                 signal.signal(sig, old)
 
 
+def closed_pipe_status() -> int:
+    """The end of a command whose reader closed stdout (``warp-st inspect x.exr | head``):
+    no message, stdout pointed at the null device (so the interpreter's final flush of the
+    unwritten rest does not complain: Python's documented recipe for SIGPIPE) and the
+    status of a process killed by SIGPIPE, 128 + 13 = 141 (1 where there is no SIGPIPE)."""
+    import os
+    import signal
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):  # no real stdout file (captured or closed)
+        pass
+    sigpipe = getattr(signal, "SIGPIPE", None)
+    return 128 + sigpipe if sigpipe is not None else 1
+
+
 def error(message: str) -> None:
     message = " ".join(str(message).split())  # one line, always
     print(f"{PROG}: error: {message}", file=sys.stderr)

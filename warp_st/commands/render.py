@@ -53,7 +53,9 @@ def add_arguments(parser) -> None:
                         help="scale radiance by D^4, the searchlight effect (off by default)")
     parser.add_argument("--precision", choices=("float32", "float64"), help="scalar type of the kernels")
     parser.add_argument("--light-speed", choices=("finite", "infinite"), help="finite (c = 1) or infinite light speed")
-    parser.add_argument("--resume", action="store_true", help="skip frames whose output is already a complete EXR")
+    parser.add_argument("--resume", action="store_true",
+                        help="skip frames whose output is already a complete EXR written by the same run (version, "
+                        "stage file, options that change pixels, channels); any other is rendered again")
     parser.add_argument("--max-memory", type=size_arg, metavar="SIZE",
                         help="refuse (exit 2) a render whose estimated memory exceeds SIZE, e.g. 8G or 512M "
                    "(default: 75%% of the physical memory)")
@@ -162,6 +164,8 @@ def run(args, argv: list[str]) -> int:
             file=sys.stderr,
         )
         return interrupted_status(exc)
+    except BrokenPipeError:  # stdout's reader went away: the command line ends quietly
+        raise
     except OSError as exc:  # e.g. disk full: the frames written so far are complete
         complete = _complete(console, jobs, started)
         error(f"{exc}; frames complete: {frames_label(complete)} ({len(complete)} of "
@@ -197,6 +201,7 @@ class _Console:
 
     def __init__(self, args):
         self.json_stdout = args.log == "-"
+        self.quiet = args.quiet
         self.human = not args.quiet and not self.json_stdout
         self.bar = not args.quiet and sys.stderr.isatty()  # the per-frame lines give way to it
         self.path = None if args.log in (None, "-") else args.log  # opened at the first record
@@ -215,6 +220,11 @@ class _Console:
             print(line, flush=True)
         if record["event"] == "frame":
             self.complete.append(record["frame"])
+        if record["event"] == "stale":
+            if not self.quiet:
+                print(f"{PROG}: frame {frame_label(record['frame'])}: rendering again: {record['reason']}",
+                      file=sys.stderr, flush=True)
+            return
         if not self.human:
             return
         if record["event"] == "build":

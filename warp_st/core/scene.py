@@ -24,7 +24,13 @@ __all__ = [
     "RenderVar",
     "RenderProduct",
     "Scene",
+    "Diagnostic",
+    "DEFAULT_CAMERA",
 ]
+
+#: ``Scene.default_camera`` (and the header's ``spacetime:camera``) of a stage without a
+#: UsdGeom.Camera: a camera at rest framing the stage's bounds (``warp_st.usd.camera``).
+DEFAULT_CAMERA = "default"
 
 
 class SceneError(ValueError):
@@ -33,7 +39,30 @@ class SceneError(ValueError):
     @classmethod
     def at(cls, file: str | None, prim: str | None, attribute: str | None, problem: str) -> "SceneError":
         where = ": ".join(p for p in (file, prim, attribute) if p)
-        return cls(f"{where}: {problem}" if where else problem)
+        error = cls(f"{where}: {problem}" if where else problem)
+        error.where = (file, prim, attribute, problem)  # the parts, for a reader that only warns
+        return error
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    """One thing of a stage the renderer does not honour (severity "warning"), or a
+    choice it made for the stage (severity "info", e.g. the default camera).
+
+    The reader makes the one list (``Scene.diagnostics``) that ``render`` prints and
+    ``validate`` lists. ``code`` names the class (e.g. "TimeSampled", "Composition").
+    """
+
+    severity: str
+    file: str
+    prim: str | None
+    attribute: str | None
+    message: str
+    code: str
+
+    def text(self) -> str:
+        """``file: /prim: attribute: message``, as a SceneError reads."""
+        return str(SceneError.at(self.file, self.prim, self.attribute, self.message))
 
 
 @dataclass(frozen=True)
@@ -225,9 +254,12 @@ class Scene:
 
     bodies: in stage traversal order; objectId = 1 + index.
     cameras: prim paths of the stage's cameras, traversal order.
-    default_camera: the settings' camera, else the first camera; None if none.
+    default_camera: the settings' camera, else the first camera; DEFAULT_CAMERA when the
+        stage has none (a camera framing its bounds); None for a Scene made by hand.
     frame_range: the stage's (startTimeCode, endTimeCode) when authored.
     products: the settings' UsdRender products in ``products`` order (empty: none).
+    diagnostics: what the reader did not honour (warnings) and chose (info), stage order.
+    meters_per_unit, time_codes_per_second: the stage's metadata (None: not read).
     camera_state: ``camera_state(path, frame) -> CameraState`` evaluates a camera
         at a USD time code (the camera is the one thing that changes per frame).
     """
@@ -242,9 +274,17 @@ class Scene:
     frame_range: tuple[float, float] | None = None
     default_camera: str | None = None
     products: tuple[RenderProduct, ...] = ()
+    diagnostics: tuple[Diagnostic, ...] = ()
+    meters_per_unit: float | None = None
+    time_codes_per_second: float | None = None
 
     def body_paths(self) -> list[str]:
         return [b.prim_path for b in self.bodies]
+
+    def header(self) -> dict[str, str]:
+        """Stage metadata for every frame's EXR header (``spacetime:<key>``)."""
+        items = {"metersPerUnit": self.meters_per_unit, "timeCodesPerSecond": self.time_codes_per_second}
+        return {key: repr(float(value)) for key, value in items.items() if value is not None}
 
 
 def surface_triangles(surf) -> np.ndarray:

@@ -25,7 +25,7 @@ from pathlib import Path
 from warp_st.core.scene import Scene
 from warp_st.jobs import farm
 from warp_st.jobs.tasks import FrameResult, StageFile, _Generated, _InMemory, _Task, forget_renderer, run_task
-from warp_st.output.plan import FrameJob, Output, check_jobs, job_complete, plan_pattern
+from warp_st.output.plan import FrameJob, Output, check_jobs, job_complete, plan_pattern, resume_check, run_identity
 from warp_st.usd.reader import load_scene
 
 __all__ = ["StageFile", "FrameResult", "SequenceResult", "SweepResult", "render_sequence", "sweep"]
@@ -157,7 +157,7 @@ def _execute(tasks: list[_Task], scene, report: _Report, *, workers: int, schedu
             # Every frame must end complete: a frame whose worker was lost too often, or
             # whose files this process cannot see, is rendered again here.
             for i, task in enumerate(tasks):
-                if results[i] is None or (task.job is not None and not job_complete(task.job)):
+                if results[i] is None or (task.job is not None and not job_complete(task.job, task.run)):
                     done(i, *run_task(task, scene), status="recovered")
     finally:
         forget_renderer()
@@ -204,7 +204,12 @@ def render_sequence(scene_or_path, frames=None, output=None, *, workers: int | N
         (see :func:`warp_st.jobs.farm.default_workers`); 0: this process; N: a local Dask
         cluster of N worker processes. scheduler: a Dask scheduler address
         (``tcp://HOST:PORT``) or a ``distributed.Client``; workers need the same files.
-    resume: skip frames whose files are already complete EXRs.
+    resume: skip frames whose files are already complete EXRs written by this same run:
+        same software version, stage file (sha256), options that change pixels, frame
+        and channels (their ``spacetime:run`` header, see :mod:`warp_st.output.plan`). A file
+        that differs is rendered again, after a ``{"event": "stale", "frame", "files",
+        "reason"}`` record naming what differs. A scene in memory cannot be checked: every
+        frame is rendered.
     progress: a tqdm bar on stderr when it is a terminal. log: see the module docstring.
     metadata: EXR header items (``spacetime:<key>``) for every frame (default: the
         stage path and its sha256 when a path is given).
@@ -226,22 +231,31 @@ def render_sequence(scene_or_path, frames=None, output=None, *, workers: int | N
     if metadata is None:
         metadata = {"stage": source.name, "stageHash": source.sha256} if isinstance(source, StageFile) else {}
 
+    stage_file = isinstance(source, StageFile)
+    run = run_identity(source.sha256 if stage_file else None, render_options,
+                       no_references=stage_file and source.no_references)
     skipped: dict[int, FrameResult] = {}
+    stale: dict[int, list[str]] = {}
     todo: list[int] = []
     for i, job in enumerate(jobs):
-        if resume and job_complete(job):
+        complete, stale[i] = resume_check(job, run) if resume else (False, [])
+        if complete:
             skipped[i] = FrameResult(job.frame, "skipped", tuple(str(o.path) for o in job.outputs))
         else:
             todo.append(i)
     report = _Report(len(todo), progress, log, "frame")
     try:
-        for result in skipped.values():
-            report.frame(result)
+        for i, job in enumerate(jobs):
+            if i in skipped:
+                report.frame(skipped[i])
+            elif stale[i]:
+                report.emit({"event": "stale", "frame": job.frame, "files": [str(o.path) for o in job.outputs],
+                             "reason": "; ".join(stale[i])})
         if not todo:
             return SequenceResult([skipped[i] for i in range(len(jobs))], time.perf_counter() - start)
         frame_list = tuple(jobs[i].frame for i in todo)
         options, items = _options(render_options), tuple(metadata.items())
-        tasks = [_Task(source, frame_list, jobs[i].frame, jobs[i], options, items) for i in todo]
+        tasks = [_Task(source, frame_list, jobs[i].frame, jobs[i], options, items, run=run) for i in todo]
         workers = _workers(workers, scheduler, len(tasks))
         results, _, n_workers = _execute(tasks, scene, report, workers=workers, scheduler=scheduler)
     finally:

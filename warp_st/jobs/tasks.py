@@ -99,6 +99,7 @@ class _Task:
     keep_image: bool = False
     value: object = None  # the sweep value, for the record
     cwd: str | None = None  # relative output names are relative to this folder (the planner's)
+    run: str | None = None  # the run identity stamped on the files (warp_st.output.plan.run_identity)
 
 
 @dataclass(frozen=True)
@@ -171,7 +172,7 @@ def run_task(task: _Task, scene=None, *, worker: str = "local", threads: int | N
     image.metadata.update(dict(task.metadata))
     files: tuple[str, ...] = ()
     if task.job is not None:
-        write_outputs(image, task.job if task.cwd is None else _rooted(task.job, task.cwd))
+        write_outputs(image, task.job if task.cwd is None else _rooted(task.job, task.cwd), task.run)
         files = tuple(str(o.path) for o in task.job.outputs)
     seconds = time.perf_counter() - start
     rays = image.width * image.height * int(getattr(renderer, "samples", 1))

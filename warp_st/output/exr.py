@@ -14,6 +14,11 @@ Header attributes:
   (OpenEXR's Python binding writes a Python float as a 32-bit ``float``
   attribute; a float64 numpy array becomes a ``double`` one).
 - ``spacetime:precision`` and ``spacetime:version``: strings.
+- ``spacetime:run``: written by a sequence (:func:`warp_st.output.plan.write_outputs`), the
+  canonical JSON of what the run that wrote the file rendered (software version, stage
+  hash, the options that change pixels, frame, channels; see
+  :func:`warp_st.output.plan.run_identity`). ``--resume`` keeps a file only when it equals
+  the current run's. An image read back and written again drops it: it is no run's output.
 - ``spacetime:<key>``: every ``Image.metadata`` item, as a string.
 - ``idManifest``: the standard OpenEXR ID manifest (``Imf::IDManifest``), one
   channel group on the channel(s) holding ``objectId`` (whatever their name; no
@@ -40,7 +45,8 @@ from warp_st.core.scene import SceneError
 from warp_st.core.version import __version__
 from warp_st.output.channels import CHANNEL_NAMES, OutputChannel, channel_spec
 
-__all__ = ["write_exr", "read_file", "read_header", "is_complete_exr", "atomic_output", "check_output_path"]
+__all__ = ["write_exr", "read_file", "read_header", "is_complete_exr", "completeness", "atomic_output",
+           "check_output_path", "ATTR_RUN"]
 
 ATTR_PREFIX = "spacetime:"
 ATTR_CAMERA_TIME = "spacetime:cameraTime"
@@ -48,6 +54,7 @@ ATTR_TIME_ORIGIN = "spacetime:timeOrigin"
 ATTR_FRAME = "spacetime:frame"
 ATTR_PRECISION = "spacetime:precision"
 ATTR_VERSION = "spacetime:version"
+ATTR_RUN = "spacetime:run"
 ATTR_ID_MANIFEST = "idManifest"
 #: ID manifest channel group: the channel it describes and its component name.
 MANIFEST_CHANNEL = "objectId"
@@ -131,7 +138,7 @@ def _id_manifest(id_manifest: dict[int, str], channels: set[str]):
     return manifest
 
 
-def _header(image, id_channels: set[str]) -> dict:
+def _header(image, id_channels: set[str], run: str | None = None) -> dict:
     header = {
         "type": OpenEXR.scanlineimage,
         "compression": OpenEXR.ZIP_COMPRESSION,
@@ -141,12 +148,14 @@ def _header(image, id_channels: set[str]) -> dict:
         header[attr] = np.array([getattr(image, field_name)], dtype=np.float64)
     header[ATTR_PRECISION] = str(image.precision)
     for key, value in image.metadata.items():
-        if key == "version":
-            continue  # read back from a file; the writer's own version always wins
+        if key in ("version", "run"):
+            continue  # read back from a file; the writer's own version (and run record) win
         if not key or key in _RESERVED_KEYS:
             raise ValueError(f"Image.metadata key {key!r} is empty or reserved")
         header[ATTR_PREFIX + key] = str(value)
     header[ATTR_VERSION] = str(__version__)
+    if run is not None:
+        header[ATTR_RUN] = str(run)
     if image.id_manifest and id_channels:
         header[ATTR_ID_MANIFEST] = _id_manifest(image.id_manifest, id_channels)
     return header
@@ -178,17 +187,17 @@ def _file_planes(image, channels) -> tuple[dict[str, np.ndarray], set[str]]:
     return planes, ids
 
 
-def write_exr(image, path, channels=None) -> None:
+def write_exr(image, path, channels=None, *, run: str | None = None) -> None:
     """Write ``image`` to ``path`` (docs/spec.md §4), atomically.
 
     channels: None writes ``image.channel_names`` under their own names; otherwise
     :class:`~warp_st.output.film.OutputChannel` items (name, source, half); OpenEXR stores
-    the channels sorted by name.
+    the channels sorted by name. run: the ``spacetime:run`` record (None: none).
     Raises an OSError naming ``path`` if its directory is missing or not writable;
     a failure while encoding leaves ``path`` untouched and no temporary file.
     """
     planes, id_channels = _file_planes(image, channels)
-    header = _header(image, id_channels)
+    header = _header(image, id_channels, run)
     with atomic_output(path) as fh:
         _encode(header, planes, fh)
 
@@ -346,18 +355,31 @@ def read_header(path) -> dict[str, str]:
     return {key: _safe_display(header[key]) for key in sorted(header)}
 
 
-def is_complete_exr(path, channels=()) -> bool:
-    """True if ``path`` is a readable EXR whose pixels all decode, all channels the
-    same non-empty size, holding every name in ``channels``.
-
-    Used by ``warp-st render --resume`` to skip frames already written.
+def completeness(path, channels=()) -> tuple[str | None, dict, tuple[str, ...]]:
+    """``(None, header, channel names)`` if ``path`` is a readable EXR whose pixels all
+    decode, all channels the same non-empty size, holding every name in ``channels``;
+    else ``(why not, {}, ())``, the reason a short phrase (``missing``, ``not a readable
+    EXR file (...)``, ...). Used by ``--resume`` (:func:`warp_st.output.plan.resume_check`).
     """
     path = Path(path)
+    if not path.exists():
+        return "missing", {}, ()
     try:
         header, planes, _, parts = _open_pixels(path)
-    except SceneError:
-        return False
-    if parts < 1 or not planes or any(n not in planes for n in channels):
-        return False
+    except SceneError as exc:
+        return str(exc).removeprefix(f"{path}: "), {}, ()
+    if parts < 1 or not planes:
+        return "has no channels", {}, ()
+    absent = [n for n in channels if n not in planes]
+    if absent:
+        return f"lacks the channel(s) {', '.join(absent)}", {}, ()
     shapes = {plane.shape for plane in planes.values()}
-    return len(shapes) == 1 and all(s > 0 for s in shapes.pop())
+    if len(shapes) != 1 or not all(s > 0 for s in next(iter(shapes))):
+        return "has channels of different or empty sizes", {}, ()
+    return None, header, tuple(sorted(planes))
+
+
+def is_complete_exr(path, channels=()) -> bool:
+    """True if ``path`` is a complete EXR holding every name in ``channels`` (see
+    :func:`completeness`)."""
+    return completeness(path, channels)[0] is None

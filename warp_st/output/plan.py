@@ -4,19 +4,40 @@ A :class:`FrameJob` is the unit a sequence renders (locally or on a farm worker)
 (USD time code) and its :class:`Output` files. Planning turns an output pattern
 (``OUT.####.exr``) or a stage's UsdRender products into jobs, checking every name before
 anything is rendered. Products: see docs/usd_render_products.md.
+
+Run identity (``--resume``): every file a sequence writes carries ``spacetime:run``, the
+canonical JSON of what its run rendered (:func:`run_identity`, :func:`output_identity`):
+the writer's software version, the stage (its root layer's sha256; None for a scene held
+in memory, which nothing can check) and ``noReferences``, every Renderer option given
+except those that never change a pixel (:data:`NON_PIXEL_OPTIONS`; an option left out is
+the stage's own, which its hash pins), the frame and the channel set. A file is kept only
+when its record equals the current run's (:func:`resume_check`). The record holds what
+was asked, not what it resolved to: ``--samples 4`` on a stage whose own is 4 still differs
+from leaving it out, so such a frame is rendered again (never kept wrongly). Only the root
+layer is hashed: an edit in a referenced or sublayered file is not seen.
 """
 from __future__ import annotations
 
+import enum
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
 from warp_st.core.conventions import DEFAULT_RESOLUTION
 from warp_st.core.frames import expand_output, frame_label, has_frame_pattern
 from warp_st.core.scene import RenderProduct, Scene, SceneError
-from warp_st.output.film import REQUIRED_CHANNELS, OutputChannel
+from warp_st.core.version import __version__
+from warp_st.output.channels import CHANNEL_NAMES
+from warp_st.output.film import OutputChannel
 
 __all__ = ["Output", "FrameJob", "OutputPlanError", "plan_pattern", "plan_products", "single_view",
-           "check_jobs", "job_complete", "write_outputs"]
+           "check_jobs", "job_complete", "resume_check", "run_identity", "output_identity",
+           "NON_PIXEL_OPTIONS", "write_outputs"]
+
+#: Renderer keywords that never change a pixel, so not part of a run's identity: the
+#: memory limit (a refusal, never a different image) and the tile threads (pixels are
+#: independent of how the rows are shared out).
+NON_PIXEL_OPTIONS = frozenset({"max_memory", "threads"})
 
 
 @dataclass(frozen=True)
@@ -157,17 +178,108 @@ def check_jobs(jobs: list[FrameJob], what: str = "outputs") -> None:
             raise OutputPlanError(exc.strerror or str(exc)) from None
 
 
-def job_complete(job: FrameJob) -> bool:
+def _plain(value):
+    """``value`` as JSON data: enums by value, tuples as lists."""
+    if isinstance(value, enum.Enum):
+        return _plain(value.value)
+    if isinstance(value, (tuple, list)):
+        return [_plain(v) for v in value]
+    if hasattr(value, "item") and not isinstance(value, (str, bytes)):  # a NumPy scalar
+        return value.item()
+    return value
+
+
+def _canonical(record: dict) -> str:
+    return json.dumps(record, sort_keys=True, separators=(",", ":"))
+
+
+def run_identity(stage: str | None, options: dict, *, no_references: bool = False) -> str:
+    """What a run renders, common to all its files, as canonical JSON (see the module docstring).
+
+    stage: the root layer's ``sha256:HEX`` (None: a scene in memory). options: the
+    Renderer keywords; None values (the stage's own) and :data:`NON_PIXEL_OPTIONS` are left out.
+    """
+    kept = {name: _plain(value) for name, value in options.items()
+            if value is not None and name not in NON_PIXEL_OPTIONS}
+    return _canonical({"stage": stage, "noReferences": bool(no_references), "options": kept})
+
+
+def output_identity(run: str, frame: float, output: Output) -> str:
+    """The ``spacetime:run`` record of one file of ``run``: with this process's software
+    version, the frame and the channel set (``"all"``, or ``[name, source, half]`` items)."""
+    channels = "all" if output.channels is None else [[c.name, c.source, bool(c.half)] for c in output.channels]
+    return _canonical({**json.loads(run), "version": __version__, "frame": float(frame), "channels": channels})
+
+
+_STAGE_OWN = "the stage's own"
+
+
+def _shown(record: dict, key: str, default: str) -> str:
+    return json.dumps(record[key]) if key in record else default
+
+
+def _differences(found: dict, expected: dict) -> list[str]:
+    """``key: file X, this run Y`` for every field (options one by one) that differs."""
+    diffs = []
+    for key in sorted(set(found) | set(expected)):
+        a, b = found.get(key), expected.get(key)
+        if key == "options" and isinstance(a, dict) and isinstance(b, dict):
+            diffs += [f"{name}: file {_shown(a, name, _STAGE_OWN)}, this run {_shown(b, name, _STAGE_OWN)}"
+                      for name in sorted(set(a) | set(b)) if a.get(name) != b.get(name)]
+        elif key not in found or key not in expected or a != b:
+            diffs.append(f"{key}: file {_shown(found, key, 'none')}, this run {_shown(expected, key, 'none')}")
+    return diffs
+
+
+def _output_problem(output: Output, frame: float, run: str | None) -> str | None:
+    """Why ``output`` is not a file ``run`` would write (None: it is); ``missing`` when absent."""
+    from warp_st.output.exr import ATTR_RUN, completeness
+
+    names = CHANNEL_NAMES if output.channels is None else tuple(c.name for c in output.channels)
+    why, header, present = completeness(output.path, names)
+    if why is not None or run is None:
+        return why
+    if set(present) != set(names):
+        return f"holds other channels ({', '.join(sorted(set(present) - set(names)))}) than this run writes"
+    expected = json.loads(output_identity(run, frame, output))
+    if expected["stage"] is None:
+        return "the scene is held in memory: nothing to check the file against (give a stage file to resume)"
+    text = header.get(ATTR_RUN)
+    if not isinstance(text, str):
+        return "has no spacetime:run record (written by another tool or an older version)"
+    try:
+        found = json.loads(text)
+    except ValueError:
+        found = None
+    if not isinstance(found, dict):
+        return "its spacetime:run record is damaged"
+    diffs = _differences(found, expected)
+    return f"written by another run ({'; '.join(diffs)})" if diffs else None
+
+
+def resume_check(job: FrameJob, run: str | None) -> tuple[bool, list[str]]:
+    """(complete, reasons) for ``--resume``: complete when every output of ``job`` is a
+    complete EXR holding its channels and, with ``run`` (:func:`run_identity`), exactly
+    those channels and a ``spacetime:run`` record equal to this run's. reasons: ``PATH:
+    why`` for each existing file that is not kept (a missing file needs no reason)."""
+    problems = [(o.path, _output_problem(o, job.frame, run)) for o in job.outputs]
+    return (all(why is None for _, why in problems),
+            [f"{path}: {why}" for path, why in problems if why not in (None, "missing")])
+
+
+def job_complete(job: FrameJob, run: str | None = None) -> bool:
     """True when every output of the frame is already a complete EXR holding the channels
-    it asks for (R, G, B, A for an all-channel output) (``--resume``)."""
-    from warp_st.output.exr import is_complete_exr
-
-    return all(is_complete_exr(o.path, REQUIRED_CHANNELS if o.channels is None else [c.name for c in o.channels])
-               for o in job.outputs)
+    it asks for (all of them for an all-channel output) and, given ``run``, written by
+    this run (see :func:`resume_check`)."""
+    return resume_check(job, run)[0]
 
 
-def write_outputs(image, job: FrameJob) -> None:
+def write_outputs(image, job: FrameJob, run: str | None = None) -> None:
     """Write every file of ``job`` from the rendered ``image`` (each atomically, each with
-    its channels); the outputs share one view (see :func:`single_view`)."""
+    its channels and, given ``run`` (:func:`run_identity`), its ``spacetime:run`` record);
+    the outputs share one view (see :func:`single_view`)."""
+    from warp_st.output.exr import write_exr
+
     for output in job.outputs:
-        image.write_exr(output.path, output.channels)
+        write_exr(image, output.path, output.channels,
+                  run=None if run is None else output_identity(run, job.frame, output))

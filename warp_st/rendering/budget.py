@@ -86,7 +86,8 @@ class MemoryRefusal(SceneError):
     """A render whose estimated memory exceeds the limit (bad input: exit 2)."""
 
 
-def count_database(scene: Scene, windows, *, fine: bool = True) -> tuple[int, int, list[int]]:
+def count_database(scene: Scene, windows, *, fine: bool = True, fraction: float | None = None
+                   ) -> tuple[int, int, list[int]]:
     """(tetrahedra, vertices, tetrahedra per body) the extrusion of ``scene`` over ``windows`` makes.
 
     Exactly what :func:`warp_st.spacetime.extrude.extrude_scene` allocates (3 tetrahedra per
@@ -99,7 +100,7 @@ def count_database(scene: Scene, windows, *, fine: bool = True) -> tuple[int, in
         n_body = 0
         parts = intervals(window)
         if parts and body.surfaces:
-            segments = sum(len(body_slices(body, part, fine=fine)) - 1 for part in parts)
+            segments = sum(len(body_slices(body, part, fine=fine, fraction=fraction)) - 1 for part in parts)
             for surf in body.surfaces:
                 n_tri = len(surface_triangles(surf))
                 if n_tri:
@@ -163,10 +164,11 @@ def check_limits(scene: Scene, windows, *, width: int, height: int, samples: int
 
 
 def check_resources(scene: Scene, windows, *, width: int, height: int, samples: int = 1, max_depth: int = 0,
-                    max_memory: int | None = None, fine: bool = True, rigid: bool = False) -> int:
+                    max_memory: int | None = None, fine: bool = True, fraction: float | None = None,
+                    rigid: bool = False) -> int:
     """Refuse (SceneError; MemoryRefusal over ``max_memory``) a render that would exceed
-    ``max_memory`` or the kernels' ranges. ``fine``: the time-segment rule
-    (``extrude.body_slices``); ``rigid``: the two-level database instead of the
+    ``max_memory`` or the kernels' ranges. ``fine`` and ``fraction``: the
+    time-segment rule (``extrude.body_slices``); ``rigid``: the two-level database instead of the
     extrusion (its size is the scene's triangles, whatever the windows). Called after
     the visibility windows and before the build. Returns the estimate.
     """
@@ -179,7 +181,7 @@ def check_resources(scene: Scene, windows, *, width: int, height: int, samples: 
         estimate, what, per_body = estimate_rigid_bytes(sum(tris), verts, pixels), f"{sum(tris):,} triangles", tris
         unit = "triangles"
     else:
-        tets, verts, per_body = count_database(scene, windows, fine=fine)
+        tets, verts, per_body = count_database(scene, windows, fine=fine, fraction=fraction)
         estimate, what, unit = estimate_bytes(tets, verts, pixels), f"{tets:,} tetrahedra", "tetrahedra"
     if max_memory is not None and estimate > max_memory:
         biggest = ""

@@ -4,16 +4,25 @@ Pinhole model of docs/spec.md §3: pixel (i, j) (row 0 at the top) looks along
 ((x_ndc hAp/2 + hOff)/f, (y_ndc vAp/2 + vOff)/f, -1) in camera space, with
 x_ndc = 2 (i + 1/2)/W - 1 and y_ndc = 1 - 2 (j + 1/2)/H. The vertical aperture is
 conformed to the image aspect (vAp = hAp H / W), keeping the horizontal field of view.
+:func:`pixel_directions` and :func:`ray_directions` are the same model in float64 NumPy
+(for oracles, measurements and benchmarks); ``make_camera`` fills the kernel's twin.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from warp_st.core.conventions import LightSpeed
+from warp_st.core.lorentz import aberrate
 from warp_st.core.scene import CameraState
 from warp_st.kernels import Kernels
 
-__all__ = ["make_camera", "camera_velocity_gamma"]
+__all__ = ["make_camera", "camera_velocity_gamma",
+           "pixel_directions", "ray_directions", "DIRECTION_FRAMES"]
+
+#: Where :func:`ray_directions` expresses a look direction: "camera" (the camera's rest
+#: frame, camera axes: -Z forward, +Y up), "rest" (the camera's rest frame, lab axes) or
+#: "lab" (the lab frame: "rest" aberrated by the camera's velocity, docs/spec.md §3).
+DIRECTION_FRAMES = ("camera", "rest", "lab")
 
 
 def camera_velocity_gamma(cam: CameraState) -> float:
@@ -55,3 +64,38 @@ def make_camera(
     c.shutter = float(shutter)
     c.seed = int(seed)
     return c
+
+
+def ray_directions(cam: CameraState, width: int, height: int, px, py, *, frame: str = "rest") -> np.ndarray:
+    """Unit look directions through image positions (``px``, ``py``) in pixels, float64.
+
+    (0, 0) is the image's top-left corner and pixel (i, j)'s centre is (i + 1/2, j + 1/2);
+    ``px`` and ``py`` broadcast, and the result has their shape plus a last axis of 3.
+    The kernel's ``camera_direction`` in NumPy, in the same order of operations: the
+    camera-space ray ((x_ndc hAp/2 + hOff)/f, (y_ndc vAp/2 + vOff)/f, -1), rotated by
+    ``cam.rotation`` (lab_from_camera), normalised, and for ``frame="lab"`` aberrated by
+    the camera's velocity (relativistic, or Galilean for a decoupled camera). ``frame``:
+    one of DIRECTION_FRAMES.
+    """
+    if frame not in DIRECTION_FRAMES:
+        raise ValueError(f"frame must be one of {DIRECTION_FRAMES}, got {frame!r}")
+    px, py = np.broadcast_arrays(np.asarray(px, dtype=np.float64), np.asarray(py, dtype=np.float64))
+    h_ap = float(cam.horizontal_aperture)
+    v_ap = h_ap * height / width
+    f = float(cam.focal_length)
+    x = ((2.0 * px / width - 1.0) * 0.5 * h_ap + float(cam.horizontal_aperture_offset)) / f
+    y = ((1.0 - 2.0 * py / height) * 0.5 * v_ap + float(cam.vertical_aperture_offset)) / f
+    d = np.stack([x, y, -np.ones_like(x)], axis=-1)
+    if frame != "camera":
+        d = d @ np.asarray(cam.rotation, dtype=np.float64).T
+    d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    if frame == "lab" and np.any(cam.velocity):
+        d = aberrate(d, np.asarray(cam.velocity, dtype=np.float64), classical=bool(cam.decoupled))
+    return d
+
+
+def pixel_directions(cam: CameraState, width: int, height: int, *, frame: str = "rest") -> np.ndarray:
+    """Unit look directions through every pixel centre, (H, W, 3), row 0 at the top:
+    :func:`ray_directions` at (i + 1/2, j + 1/2)."""
+    j, i = np.mgrid[0:height, 0:width]
+    return ray_directions(cam, width, height, i + 0.5, j + 0.5, frame=frame)

@@ -32,7 +32,8 @@ from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
 from warp_st.spacetime.visibility import union, visibility_windows
 
-__all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION", "PRIMITIVES"]
+__all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION", "PRIMITIVES",
+           "TILE_PIXELS", "init_warp"]
 
 
 #: Mirror reflections followed when nothing asks otherwise (issue: light transport).
@@ -42,20 +43,22 @@ DEFAULT_MAX_DEPTH = 4
 #: overhead (~9 us) is negligible. 4,096 against 8,192, five alternations (README,
 #: Performance): the aberration scene's 1 -> 2 core speed-up 1.64-1.86x (median
 #: 1.79x) against 1.67-1.74x.
-_TILE_PIXELS = 4096
+TILE_PIXELS = 4096
 
 
-def _warp():
+def init_warp():
+    """The ``warp`` module, configured (errors only, no backward pass, ``WARP_CACHE_PATH`` as
+    the kernel cache) and initialised once without the CPU-only driver notice."""
     import warp as wp
 
-    if not getattr(_warp, "_ready", False):
+    if not getattr(init_warp, "_ready", False):
         wp.config.log_level = 40  # errors only: no banner or per-module load lines
         wp.config.enable_backward = False
         cache = os.environ.get("WARP_CACHE_PATH")
         if cache:
             wp.config.kernel_cache_dir = cache
         _quiet_init(wp)
-        _warp._ready = True
+        init_warp._ready = True
     return wp
 
 
@@ -130,6 +133,17 @@ class Renderer:
         (the default in float64: one comoving triangle test per extruded prism) or
         "tet" (three tetrahedra per prism, the general path); all give the same images
         to float32 rounding.
+
+    Two options exist to measure the database's rules (examples/benchmarks), not to
+    render: the default None keeps the renderer's own rules.
+    sweep_fraction: time segments in which each body sweeps this fraction of its own
+        size (prism and tet databases), instead of the default rule (``extrude.segment_sweep``, with the coarser
+        fallback when memory is short).
+    adjust_windows: ``adjust_windows(scene, windows) -> windows``, called with the
+        per-body visibility windows of the (re-tessellated) scene; the memory check and
+        the extrusion use what it returns. A window cut short loses what the frames see.
+    A renderer given either builds a database of its own, never shared through the
+    scene's cache.
     """
 
     def __init__(
@@ -150,8 +164,14 @@ class Renderer:
         threads: int | None = None,
         max_memory: int | str | None = None,
         primitive: str | None = None,
+        sweep_fraction: float | None = None,
+        adjust_windows=None,
     ):
         src = scene.source
+        if sweep_fraction is not None and not (math.isfinite(sweep_fraction) and sweep_fraction > 0.0):
+            raise ValueError(f"sweep_fraction must be finite and > 0, got {sweep_fraction!r}")
+        self.sweep_fraction = sweep_fraction
+        self.adjust_windows = adjust_windows
         if primitive is not None and primitive not in PRIMITIVES:
             raise SceneError.at(src, None, "primitive", f"must be one of {', '.join(PRIMITIVES)}, got {primitive!r}")
         self.scene = scene
@@ -230,7 +250,7 @@ class Renderer:
         from warp_st.rendering.device import StaticArrays
         from warp_st.rendering.device_rigid import RigidArrays
 
-        wp = _warp()
+        wp = init_warp()
         t0 = time.perf_counter()
         modes = {self._frame_light_speed(c) for c in cams}
         # The shutter moves each camera event along its worldline by up to `shutter`.
@@ -246,22 +266,31 @@ class Renderer:
         if tessellation:  # the cache holds the bodies only: an entry must not keep its scene alive
             bodies = cache.tessellated(tessellation, lambda: retessellated(self.scene, self.sphere_segments).bodies)
             scene = dataclasses.replace(self.scene, bodies=bodies)
-        windows = cache.windows((tessellation, tuple(sorted(m.value for m in modes)), self.max_depth, shutter,
-                                 tuple((c.time, *np.asarray(c.position).tolist(), *np.asarray(c.velocity).tolist())
-                                       for c in cams)),
-                                lambda: self._windows(scene, cams, modes, shutter))
+        # The measuring options build a database of their own, neither looked up nor cached.
+        measuring = self.sweep_fraction is not None or self.adjust_windows is not None
+        if measuring:
+            windows = self._windows(scene, cams, modes, shutter)
+            if self.adjust_windows is not None:
+                windows = list(self.adjust_windows(scene, windows))
+        else:
+            windows = cache.windows((tessellation, tuple(sorted(m.value for m in modes)), self.max_depth, shutter,
+                                     tuple((c.time, *np.asarray(c.position).tolist(), *np.asarray(c.velocity).tolist())
+                                           for c in cams)),
+                                    lambda: self._windows(scene, cams, modes, shutter))
         check_limits(scene, windows, width=self.width, height=self.height, samples=self.samples,
                      max_depth=self.max_depth)
         pixels = self.width * self.height
-        db = next((d for d in cache.candidates(tessellation, self.primitive, windows)
-                   if self.max_memory is None or d.nbytes + pixels * BYTES_PER_PIXEL <= self.max_memory), None)
+        db = None if measuring else next(
+            (d for d in cache.candidates(tessellation, self.primitive, windows)
+             if self.max_memory is None or d.nbytes + pixels * BYTES_PER_PIXEL <= self.max_memory), None)
         self.stats.database_built = db is None
         if db is None:
             if self.primitive == "rigid":
                 db = self._new_rigid_database(scene, windows, tessellation, cache, t0)
             else:
                 db = self._new_database(scene, windows, tessellation, t0)
-            cache.add(db)
+            if not measuring:
+                cache.add(db)
         else:
             cache.use(db)
         tc = time.perf_counter()
@@ -304,14 +333,15 @@ class Renderer:
         # tessellated bodies' triangles unless that does not fit; then they fall back to
         # the coarser rule (faster to build, slower to trace).
         limits = dict(width=self.width, height=self.height, samples=self.samples, max_depth=self.max_depth,
-                      max_memory=self.max_memory)
+                      max_memory=self.max_memory, fraction=self.sweep_fraction)
         try:
             check_resources(scene, windows, **limits)
             fine = True
         except MemoryRefusal:
             check_resources(scene, windows, fine=False, **limits)
             fine = False
-        mesh, bvh = build_database(scene, windows, self.primitive, fine=fine)
+        mesh, bvh = build_database(scene, windows, self.primitive, fine=fine,
+                                   fraction=self.sweep_fraction)
         t2 = time.perf_counter()
         built = _BuildStats(extrude_seconds=t2 - bvh.build_seconds - t0, bvh_seconds=bvh.build_seconds)
         return database_cache.Database(tessellation=tessellation, primitive=self.primitive, fine=fine,
@@ -348,6 +378,7 @@ class Renderer:
             "triangles": s.triangles,
             "motion_segments": s.segments,
             "time_segments": ("motion segments (rigid)" if self.primitive == "rigid"
+                              else f"sweep {self.sweep_fraction:g} x body size" if self.sweep_fraction is not None
                               else "per triangle" if self.fine_segments else "per body (memory)"),
             "bvh_nodes": s.bvh_nodes,
             "extrude_seconds": round(s.extrude_seconds, 4),
@@ -372,7 +403,7 @@ class Renderer:
         from warp_st.rendering.device import make_geometry, make_shading
         from warp_st.rendering.device_rigid import make_rigid_geometry
 
-        wp = _warp()
+        wp = init_warp()
         frame = self.frames[0] if frame is None else self._frame_value(frame)
         if frame not in self._cameras:
             # A frame outside the prepared set: widen the database to cover it.
@@ -409,7 +440,7 @@ class Renderer:
         film.visits = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
         film.overflow = wp.zeros(1, dtype=wp.int32, device="cpu")
 
-        tiles = [(o, min(_TILE_PIXELS, n_pix - o)) for o in range(0, n_pix, _TILE_PIXELS)]
+        tiles = [(o, min(TILE_PIXELS, n_pix - o)) for o in range(0, n_pix, TILE_PIXELS)]
 
         def launch(tile):
             wp.launch(k.render_pixels, dim=tile[1], inputs=[geo, shd, kcam, film, tile[0]], device="cpu")
@@ -468,26 +499,27 @@ class Renderer:
                 "shutter": repr(self.shutter),
                 "dopplerColor": str(self.doppler_color).lower(),
                 "searchlight": str(self.searchlight).lower(),
+                **self.scene.header(),  # metersPerUnit, timeCodesPerSecond
             },
         )
 
 
-def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fine: bool = True
-                   ) -> tuple[SpacetimeMesh, FlatBVH]:
+def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fine: bool = True,
+                   fraction: float | None = None) -> tuple[SpacetimeMesh, FlatBVH]:
     """Extrude ``scene`` over per-body time ``windows`` and build the 4D BVH.
 
     ``primitive``: what the BVH's leaves hold and the kernels intersect: "prism" (one
     comoving triangle test per extruded triangle and segment; every body moves
     uniformly, so this is exact) or "tet" (three tetrahedra per prism, the general
     path). The returned mesh stores that primitive array in BVH leaf order (a leaf is
-    a contiguous range), so primitive indices refer to that order. ``fine``: the
-    time-segment rule (``extrude.body_slices``).
+    a contiguous range), so primitive indices refer to that order. ``fine`` and
+    ``fraction``: the time-segment rule (``extrude.body_slices``).
     """
     from warp_st.accel.bvh import build_bvh
 
     if primitive not in ("prism", "tet"):
         raise ValueError(f"primitive must be prism or tet, got {primitive!r}")
-    mesh = dataclasses.replace(extrude_scene(scene, windows, fine=fine), primitive=primitive)
+    mesh = dataclasses.replace(extrude_scene(scene, windows, fine=fine, fraction=fraction), primitive=primitive)
     lo, hi = mesh.prim_boxes() if mesh.prim_count else (np.zeros((0, 4)), np.zeros((0, 4)))
     bvh = build_bvh(lo, hi, primitive=primitive)
     if primitive == "prism":

@@ -23,7 +23,8 @@ __all__ = ["adapt_sphere_tessellation", "sphere_tessellation", "retessellated", 
 # A UsdGeom.Sphere keeps its analytic shape on the Surface (``Surface.sphere``); the
 # renderer, which knows the resolution, the lens and every frame's camera event, picks
 # the cheapest UV tessellation whose error stays under half a pixel and re-tessellates
-# before extrusion. Why the bound holds (docs/performance.md, "Adaptive tessellation"):
+# before extrusion. Why the bound holds (examples/benchmarks/README.md, "How the adaptive
+# sphere tessellation works"):
 #
 # - All vertices lie on the sphere, so in the body frame the polyhedron lies between
 #   ball(R - g) and ball(R), g = R (1 - cos(sqrt(2) pi / n)) < 2 R (1 - cos(pi / n)) (the

@@ -233,13 +233,15 @@ def body_triangles(body: Body, materials: list, mat_index: dict) -> BodyTriangle
     )
 
 
-def extrude_scene(scene: Scene, windows: list, *, fine: bool = True) -> SpacetimeMesh:
+def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: float | None = None) -> SpacetimeMesh:
     """Extrude every body of ``scene`` over its visible time window.
 
     windows[i] is the lab-time window of body i that the frames can see (already
     intersected with its lifetime): an interval (lo, hi), a tuple of disjoint
     intervals (each extruded on its own), or None when the body is never visible.
     fine: time segments by ``segment_sweep`` (default) or by SWEEP_FRACTION of the body.
+    fraction: when given, time segments in which each body sweeps ``fraction`` x its
+    size, whatever ``fine`` says (``body_slices``; for measuring the rule).
     """
     materials: list = []
     mat_index: dict = {}
@@ -262,7 +264,7 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True) -> Spacetim
         tri_body.append(np.full(n_tri, b_index, dtype=np.int32))
         tri_material.append(bt.tri_material)
         for part in parts:  # each interval on its own
-            slices = body_slices(body, part, fine=fine)
+            slices = body_slices(body, part, fine=fine, fraction=fraction)
             ev = _slice_events(bt.local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
             verts.append(ev.reshape(-1, 4))
             vnorms.append(np.broadcast_to(bt.normals, (len(slices), n_pts, 3)).reshape(-1, 3))

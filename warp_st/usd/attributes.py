@@ -26,6 +26,7 @@ __all__ = [
     "SPACETIME_BODY_API",
     "SPACETIME_CAMERA_API",
     "DEFAULT_TIME",
+    "static_time",
     "Where",
     "has_api",
     "real",
@@ -47,9 +48,17 @@ SPACETIME_CAMERA_API = "SpacetimeCameraAPI"
 #: reported masked, so that one run lists every problem rather than the first.
 MASKED: contextvars.ContextVar[frozenset] = contextvars.ContextVar("warp_st_masked_attributes", default=frozenset())
 
-#: Geometry, bodies, lights and settings are read here: the 4D database never
-#: changes between frames; only the camera is evaluated per time code.
+#: Our own ``spacetime:`` attributes are read here (they are static: a time-sampled one is
+#: an error). Everything else of the 4D database is read once at the stage's static time
+#: (:func:`static_time`); only the camera is evaluated per time code.
 DEFAULT_TIME = Usd.TimeCode.Default()
+
+
+def static_time(stage: Usd.Stage) -> float:
+    """The time code geometry, lights and settings are read at: the stage's start time code
+    (0 when unauthored), the frame rendered when none is asked for. An attribute without
+    time samples reads its default value there, as at the default time code."""
+    return float(stage.GetStartTimeCode())
 
 
 def _tf_types(*names) -> frozenset[str]:
@@ -69,9 +78,16 @@ _TOKEN = _tf_types("Token", "String")
 
 @dataclass(frozen=True)
 class Where:
-    """The file an error is reported against (the root layer the user gave)."""
+    """The file an error is reported against (the root layer the user gave), and the time
+    code real-world attributes are read at (``static``, from :func:`static_time`;
+    ``spacetime:`` ones are read at the default time code)."""
 
     file: str
+    static: float | None = None  # the static time code (None: the default time code)
+
+    @property
+    def time(self) -> Usd.TimeCode:
+        return DEFAULT_TIME if self.static is None else Usd.TimeCode(self.static)
 
     def error(self, prim, attribute: str | None, problem: str) -> SceneError:
         """A one-line SceneError naming file, prim path and attribute.
@@ -141,9 +157,12 @@ def _raw(where: Where, prim, name: str, kinds: frozenset[str], what: str, time, 
     """(value, found): the attribute's value at ``time`` after a type check.
 
     found is False when the attribute has no value (neither authored nor a schema
-    fallback). A value authored only as time samples is an error at the default
-    time code: bodies and geometry are static 4D objects.
+    fallback). ``time`` None: the default time code for a ``spacetime:`` attribute, where
+    one authored only as time samples is an error (bodies are static 4D objects), else
+    ``where.time``.
     """
+    if time is None:
+        time = DEFAULT_TIME if name.startswith("spacetime:") else where.time
     masked = MASKED.get()
     if masked and (str(prim.GetPath()), name) in masked:
         return None, False
@@ -153,11 +172,11 @@ def _raw(where: Where, prim, name: str, kinds: frozenset[str], what: str, time, 
     type_name = _authored_type(attr)
     if type_name.isArray != array or type_name.type.typeName not in kinds:
         raise where.error(prim, name, f"must be {what}, not {_text(type_name)}")
-    if (time == DEFAULT_TIME and attr.GetNumTimeSamples() > 0
+    if (time == DEFAULT_TIME and name.startswith("spacetime:") and attr.GetNumTimeSamples() > 0
             and attr.GetResolveInfo(DEFAULT_TIME).GetSource() != Usd.ResolveInfoSourceDefault):
         raise where.error(
-            prim, name, "is only time-sampled; author a default value (bodies, geometry, lights and "
-            "settings are static: only the camera is evaluated per time code)"
+            prim, name, "is only time-sampled; author a default value (bodies are static 4D objects: "
+            "only the camera is evaluated per time code)"
         )
     value = attr.Get(time)
     if value is None:
@@ -165,7 +184,7 @@ def _raw(where: Where, prim, name: str, kinds: frozenset[str], what: str, time, 
     return value, True
 
 
-def real(where: Where, prim, name: str, fallback: float | None = None, *, time=DEFAULT_TIME,
+def real(where: Where, prim, name: str, fallback: float | None = None, *, time=None,
          finite: bool = True, minimum: float | None = None, positive: bool = False) -> float | None:
     """A real scalar (half, float or double), validated."""
     value, found = _raw(where, prim, name, _REAL, "a real number (double or float)", time)
@@ -183,7 +202,7 @@ def real(where: Where, prim, name: str, fallback: float | None = None, *, time=D
     return x
 
 
-def vector(where: Where, prim, name: str, size: int, fallback=None, *, time=DEFAULT_TIME,
+def vector(where: Where, prim, name: str, size: int, fallback=None, *, time=None,
            finite: bool = True) -> np.ndarray | None:
     """A fixed-size real vector (double/float/half, any role) as float64, shape (size,).
 
@@ -203,7 +222,7 @@ def vector(where: Where, prim, name: str, size: int, fallback=None, *, time=DEFA
 
 
 def integer(where: Where, prim, name: str, fallback: int | None = None, *, minimum: int | None = None,
-            maximum: int | None = None, time=DEFAULT_TIME) -> int | None:
+            maximum: int | None = None, time=None) -> int | None:
     """An integer scalar (int, uint, int64, uint64, uchar)."""
     value, found = _raw(where, prim, name, _INT, "an integer (int)", time)
     if not found:
@@ -216,13 +235,13 @@ def integer(where: Where, prim, name: str, fallback: int | None = None, *, minim
     return n
 
 
-def boolean(where: Where, prim, name: str, fallback: bool | None = None, *, time=DEFAULT_TIME) -> bool | None:
+def boolean(where: Where, prim, name: str, fallback: bool | None = None, *, time=None) -> bool | None:
     value, found = _raw(where, prim, name, _BOOL, "a bool", time)
     return bool(value) if found else fallback
 
 
 def token(where: Where, prim, name: str, allowed: tuple[str, ...], fallback: str | None = None, *,
-          time=DEFAULT_TIME) -> str | None:
+          time=None) -> str | None:
     """A token (or string) restricted to ``allowed``."""
     value, found = _raw(where, prim, name, _TOKEN, "a token", time)
     if not found:
@@ -260,12 +279,12 @@ def int2(where: Where, prim, name: str, *, authored_only: bool = True) -> tuple[
     attr = prim.GetAttribute(name)
     if authored_only and (not attr or not attr.HasAuthoredValue()):
         return None
-    value, found = _raw(where, prim, name, _INT2, "an int2", DEFAULT_TIME)
+    value, found = _raw(where, prim, name, _INT2, "an int2", None)
     return (int(value[0]), int(value[1])) if found else None
 
 
 def _array(where: Where, prim, name: str, kinds: frozenset[str], what: str, dtype, shape):
-    value, found = _raw(where, prim, name, kinds, what, DEFAULT_TIME, array=True)
+    value, found = _raw(where, prim, name, kinds, what, None, array=True)
     if not found:
         return None
     return np.asarray(value, dtype=dtype).reshape(shape)

@@ -1,34 +1,101 @@
-"""The camera at a USD time code (docs/spec.md §3): ``Scene.camera_state``."""
+"""The camera at a USD time code (docs/spec.md §3): ``Scene.camera_state``; and the
+default camera of a stage without one (:class:`Framing`)."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom
 
 from warp_st.core.conventions import LightSpeed
 from warp_st.core.limits import MAX_MAGNITUDE
-from warp_st.core.scene import CameraState, SceneError
+from warp_st.core.scene import DEFAULT_CAMERA, CameraState, SceneError
 from warp_st.usd import attributes as A
 from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api
 from warp_st.usd.geometry import world_transform
 from warp_st.usd.stage import open_stage, tf_message
 
-__all__ = ["CameraEvaluator", "lab_from_camera"]
+__all__ = ["CameraEvaluator", "Framing", "frame_bounds", "lab_from_camera"]
+
+#: usdrecord's free camera is a default GfCamera: a 50 mm lens, 15.2908 mm vertical aperture.
+FRAMING_FOCAL_LENGTH = 50.0
+FRAMING_VERTICAL_APERTURE = 15.2908
+#: Bounds whose extent along the up axis is at most this fraction of their width or depth
+#: are framed from above (see :func:`frame_bounds`).
+FLAT_FRACTION = 0.01
+
+
+@dataclass(frozen=True)
+class Framing:
+    """The default camera: at rest in the lab, its time the rendered time code."""
+
+    position: tuple[float, float, float]
+    rotation: tuple[tuple[float, ...], ...]  # lab_from_camera, rows
+    horizontal_aperture: float
+    vertical_aperture: float = FRAMING_VERTICAL_APERTURE
+    focal_length: float = FRAMING_FOCAL_LENGTH
+
+    def state(self, frame: float) -> CameraState:
+        return CameraState(prim_path=DEFAULT_CAMERA, time=float(frame), position=np.array(self.position),
+                           rotation=np.array(self.rotation), focal_length=self.focal_length,
+                           horizontal_aperture=self.horizontal_aperture, vertical_aperture=self.vertical_aperture)
+
+    @property
+    def view(self) -> np.ndarray:
+        """The lab direction the camera looks along (its -Z)."""
+        return -np.array(self.rotation)[:, 2]
+
+    def describe(self) -> str:
+        fov = math.degrees(2.0 * math.atan(0.5 * self.vertical_aperture / self.focal_length))
+        p = ", ".join(f"{c:.6g}" for c in self.position)
+        v = ", ".join(f"{c:.6g}" for c in self.view + 0.0)
+        return f"at rest at ({p}) looking along ({v}), vertical field of view {fov:.4g} degrees"
+
+
+def frame_bounds(lo, hi, up_axis: str, aspect: float) -> Framing:
+    """usdrecord's free camera for the world bounds ``lo``..``hi``: a default (50 mm) lens
+    looking along -Z (upAxis Y) or +Y (upAxis Z, +Z up) at the bounds' centre, backed off
+    until the face of the bounds towards it fills the frame in both directions (the
+    horizontal aperture gives ``aspect`` = width / height). Flat bounds, less than
+    FLAT_FRACTION as high as they are wide or deep (a floor, decals, an asset on a large
+    ground plane), are seen from above instead: edge-on they would show nothing."""
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    centre, size = 0.5 * (lo + hi), hi - lo
+    up = 2 if up_axis == "Z" else 1
+    across = max(size[i] for i in range(3) if i != up)
+    if size[up] > FLAT_FRACTION * across or not size.any():
+        # columns: camera +X, +Y, +Z in the lab; the camera looks down its -Z
+        rotation = np.eye(3) if up == 1 else np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    else:  # look down the up axis, the image's top towards the depth axis
+        rotation = (np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]) if up == 1 else np.eye(3))
+    right, top, back = np.abs(rotation.T @ size) * 0.5
+    h_ap = FRAMING_VERTICAL_APERTURE * float(aspect)
+    tan_h = 0.5 * h_ap / FRAMING_FOCAL_LENGTH
+    tan_v = 0.5 * FRAMING_VERTICAL_APERTURE / FRAMING_FOCAL_LENGTH
+    front = max(right / tan_h, top / tan_v)
+    if front == 0.0:  # a single point: stand one unit off
+        front = 1.0
+    position = centre + rotation[:, 2] * (front + back)
+    return Framing(tuple(float(c) for c in position), tuple(tuple(float(c) for c in row) for row in rotation),
+                   float(h_ap))
 
 
 class CameraEvaluator:
     """``camera_state(path, frame) -> CameraState``: a camera at a USD time code (docs/spec.md §3).
 
-    path None selects the scene's default camera. Holds the open stage; pickling
+    path None selects the scene's default camera; DEFAULT_CAMERA the ``framing`` (a stage
+    without a camera). Holds the open stage; pickling
     keeps only how to reopen it: the file path when the scene was loaded from a
     path (``reopen``), else the flattened text of the stage that was passed in
     (so in-memory edits survive). The stage is reopened on first use.
     """
 
     def __init__(self, stage: Usd.Stage, where: Where, cameras: tuple[str, ...],
-                 default_camera: str | None, *, reopen: str | None = None, no_references: bool = False):
+                 default_camera: str | None, *, reopen: str | None = None, no_references: bool = False,
+                 framing: Framing | None = None):
         self._stage = stage
+        self.framing = framing
         self.where = where
         self.cameras = cameras
         self.default_camera = default_camera
@@ -64,16 +131,19 @@ class CameraEvaluator:
 
     def _evaluate(self, path: str | None, frame: float) -> CameraState:
         w = self.where
-        path = path or self.default_camera
-        if path is None:
-            raise SceneError.at(w.file, None, None, "the stage has no camera (UsdGeom.Camera)")
+        path = path or self.default_camera or DEFAULT_CAMERA
+        frame = float(frame)
+        if not math.isfinite(frame) or abs(frame) > MAX_MAGNITUDE:
+            raise SceneError.at(w.file, str(path), None, f"frame must be finite and within +-{MAX_MAGNITUDE:g}, got {frame}")
+        if path == DEFAULT_CAMERA:
+            if self.framing is None:
+                raise SceneError.at(w.file, None, None, "nothing to render: the stage has no camera and no "
+                                                        "supported visible geometry for the default camera to frame")
+            return self.framing.state(frame)
         prim = self.stage().GetPrimAtPath(str(path))
         if not prim or not prim.IsA(UsdGeom.Camera):
             known = ", ".join(self.cameras) or "none"
             raise SceneError.at(w.file, str(path), None, f"no such camera (cameras: {known})")
-        frame = float(frame)
-        if not math.isfinite(frame) or abs(frame) > MAX_MAGNITUDE:
-            raise SceneError.at(w.file, str(path), None, f"frame must be finite and within +-{MAX_MAGNITUDE:g}, got {frame}")
         tc = Usd.TimeCode(frame)
         projection = UsdGeom.Camera(prim).GetProjectionAttr().Get(tc)
         if projection != UsdGeom.Tokens.perspective:

@@ -1,34 +1,47 @@
-"""Gprims → world-space triangle surfaces, and their UsdPreviewSurface materials.
+"""Gprims → world-space triangle surfaces (materials: ``warp_st.usd.materials``).
 
-Everything is read at the default time code (the 4D database never changes
-between frames) and returned in float64 world space at the body's reference time
-(docs/spec.md §2). USD matrices act on row vectors: ``p_world = p_local @ M[:3, :3] + M[3, :3]``.
+Everything is read once at the stage's static time code (``Where.time``: the 4D
+database never changes between frames) and returned in float64 world space at the
+body's reference time (docs/spec.md §2). USD matrices act on row vectors:
+``p_world = p_local @ M[:3, :3] + M[3, :3]``.
+
+Read: Mesh (polygons fan-triangulated, holes removed; a subdivision surface renders its
+control cage), Sphere, Cube, Cylinder, Cone, Capsule (and Cylinder_1 / Capsule_1) and
+Plane (``warp_st.core.tessellate``), PointInstancer. Other gprims (Points, curves,
+patches, volumes) are skipped with a warning; so is every authored thing not honoured
+(``warp_st.usd.diagnostics.check_prim``, run on each gprim and its ancestors).
 """
 from __future__ import annotations
 
 import warnings
 
 import numpy as np
-from pxr import Gf, Tf, Usd, UsdGeom, UsdShade
+from pxr import Gf, Tf, Usd, UsdGeom
 
 from warp_st.core import tessellate
 from warp_st.core.limits import MAX_MAGNITUDE
-from warp_st.core.scene import Material, Surface
+from warp_st.core.scene import SceneError, Surface
 from warp_st.usd import attributes as A
 from warp_st.usd.attributes import DEFAULT_TIME, Where
+from warp_st.usd.diagnostics import Notes, check_prim
+from warp_st.usd.materials import MaterialReader
 
 __all__ = [
     "SUPPORTED_GPRIMS",
     "is_hidden",
     "fan_triangulate",
     "transform_surface",
-    "MaterialReader",
     "GprimReader",
     "world_transform",
 ]
 
 #: The gprim types turned into surfaces (docs/spec.md §2). Other gprims are skipped with a warning.
-SUPPORTED_GPRIMS = (UsdGeom.Mesh, UsdGeom.Sphere, UsdGeom.Cube)
+SUPPORTED_GPRIMS = (UsdGeom.Mesh, UsdGeom.Sphere, UsdGeom.Cube, UsdGeom.Cylinder, UsdGeom.Cylinder_1, UsdGeom.Cone,
+                    UsdGeom.Capsule, UsdGeom.Capsule_1, UsdGeom.Plane)
+
+#: The attribute that scales each analytic shape (named when its world coordinates overflow).
+_SIZE_ATTRIBUTE = {"Sphere": "radius", "Cube": "size", "Cylinder": "radius", "Cone": "radius", "Capsule": "radius",
+                   "Cylinder_1": "radiusBottom", "Capsule_1": "radiusBottom", "Plane": "width"}
 
 #: Prims visited below a prototype root: "over" prototypes are allowed, classes are not.
 _PROTOTYPE_PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimIsActive & Usd.PrimIsLoaded & ~Usd.PrimIsAbstract)
@@ -103,8 +116,8 @@ def _blame_largest_op(where: Where, prim, time=DEFAULT_TIME):
                                 f"beyond +-{MAX_MAGNITUDE:g}")
 
 
-def is_hidden(prim) -> bool:
-    """True when the prim (and so its whole subtree) is not rendered.
+def is_hidden(prim, time=DEFAULT_TIME) -> bool:
+    """True when the prim (and so its whole subtree) is not rendered at ``time``.
 
     ``visibility = invisible`` and the ``guide`` / ``proxy`` purposes hide a subtree
     (a final-frame renderer draws the ``default`` and ``render`` purposes only).
@@ -112,9 +125,9 @@ def is_hidden(prim) -> bool:
     if not prim.IsA(UsdGeom.Imageable):
         return False
     img = UsdGeom.Imageable(prim)
-    if img.GetVisibilityAttr().Get(DEFAULT_TIME) == UsdGeom.Tokens.invisible:
+    if img.GetVisibilityAttr().Get(time) == UsdGeom.Tokens.invisible:
         return True
-    return img.GetPurposeAttr().Get(DEFAULT_TIME) in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
+    return img.GetPurposeAttr().Get(time) in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
 
 
 def fan_triangulate(counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
@@ -156,76 +169,17 @@ def transform_surface(points, triangles, normals, world_from_local: Gf.Matrix4d)
     return world, np.ascontiguousarray(triangles, dtype=np.int64), normals
 
 
-class MaterialReader:
-    """Bound UsdPreviewSurface → :class:`Material`, with displayColor as the fallback."""
-
-    def __init__(self, where: Where):
-        self.where = where
-        self._by_material: dict[str, Material | None] = {}
-
-    def __call__(self, prim) -> Material:
-        material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial(UsdShade.Tokens.full)
-        if material:
-            key = str(material.GetPath())
-            if key not in self._by_material:
-                self._by_material[key] = self._preview_surface(material)
-            if self._by_material[key] is not None:
-                return self._by_material[key]
-        return self._display_color(prim)
-
-    def _preview_surface(self, material) -> Material | None:
-        source = material.ComputeSurfaceSource()
-        shader = source[0] if isinstance(source, tuple) else source
-        if not shader or shader.GetShaderId() != "UsdPreviewSurface":
-            return None
-        defaults = Material()
-        return Material(
-            diffuse=tuple(self._input(shader, "diffuseColor", 3, defaults.diffuse)),
-            emissive=tuple(self._input(shader, "emissiveColor", 3, defaults.emissive)),
-            metallic=float(np.clip(self._input(shader, "metallic", 1, (defaults.metallic,))[0], 0.0, 1.0)),
-        )
-
-    def _input(self, shader, name: str, size: int, fallback):
-        """The input's value, following connections to the value-producing attribute.
-
-        A connection to another shader's output (a texture) cannot be evaluated
-        here; the input's own authored value, else the UsdPreviewSurface default, is used.
-        """
-        inp = shader.GetInput(name)
-        if not inp:
-            return [float(x) for x in fallback]
-        attr = inp.GetAttr()
-        producers = inp.GetValueProducingAttributes()
-        if producers and not UsdShade.Output.IsOutput(producers[0]):
-            attr = producers[0]
-        prim, attr_name = attr.GetPrim(), attr.GetName()
-        if size == 1:
-            value = A.real(self.where, prim, attr_name, fallback[0])
-            return [value]
-        return [float(x) for x in A.vector(self.where, prim, attr_name, size, fallback)]
-
-    def _display_color(self, prim) -> Material:
-        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayColor")
-        if primvar and primvar.HasValue():
-            attr = primvar.GetAttr()
-            colors = A.vec3_array(self.where, attr.GetPrim(), attr.GetName())
-            if colors is not None and len(colors):
-                first = 0
-                if primvar.IsIndexed():
-                    indices = primvar.GetIndices(DEFAULT_TIME)
-                    first = int(indices[0]) if len(indices) and 0 <= indices[0] < len(colors) else 0
-                return Material(diffuse=tuple(float(c) for c in colors[first]))
-        return Material()
-
-
 class GprimReader:
-    """Mesh / Sphere / Cube / PointInstancer prims → :class:`Surface` objects in world space."""
+    """Gprims and PointInstancers → :class:`Surface` objects in world space; what is not
+    honoured goes to ``notes``."""
 
-    def __init__(self, where: Where, xform_cache: UsdGeom.XformCache):
+    def __init__(self, where: Where, xform_cache: UsdGeom.XformCache, notes: Notes | None = None):
         self.where = where
         self.xf = xform_cache
-        self.material = MaterialReader(where)
-        self._warned: set[str] = set()
+        self.notes = Notes(where.file) if notes is None else notes
+        self.material = MaterialReader(where, self.notes)
+        self.subdivided: list[str] = []  # meshes rendered as their control cage (one warning per stage)
+        self._checked: set[str] = set()
 
     # -- single gprims ------------------------------------------------------------
     def surface(self, prim, world_from_local: Gf.Matrix4d | None = None, label: str | None = None):
@@ -233,17 +187,19 @@ class GprimReader:
         local = self._local_mesh(prim)
         if local is None:
             return None
+        self.check(prim)  # what it authors (and its ancestors) that is not honoured
         points, triangles, normals = local
         if world_from_local is None:
-            world_from_local = world_transform(self.where, prim, lambda: self.xf.GetLocalToWorldTransform(prim))
+            world_from_local = world_transform(self.where, prim, lambda: self.xf.GetLocalToWorldTransform(prim),
+                                               self.where.time)
         local_size = float(np.abs(points).max()) if len(points) else 0.0
         with np.errstate(over="ignore", invalid="ignore"):
             points, triangles, normals = transform_surface(points, triangles, normals, world_from_local)
         if not _within(points):
             # Both factors are within bounds; blame the larger one: the transform or the shape.
             if float(np.abs(np.asarray(world_from_local)).max()) >= local_size:
-                raise _blame_largest_op(self.where, prim)
-            what = {"Sphere": "radius", "Cube": "size"}.get(str(prim.GetTypeName()), "points")
+                raise _blame_largest_op(self.where, prim, self.where.time)
+            what = _SIZE_ATTRIBUTE.get(str(prim.GetTypeName()), "points")
             raise self.where.error(prim, what, f"world-space coordinates (after the transforms of the prim, its "
                                                f"ancestors and instancers) are not finite or exceed +-{MAX_MAGNITUDE:g}")
         sphere = None
@@ -259,8 +215,19 @@ class GprimReader:
             sphere=sphere,
         )
 
+    def check(self, prim) -> None:
+        """What the prim and its ancestors author that is not honoured (once per prim)."""
+        while prim and not prim.IsPseudoRoot():
+            path = str(prim.GetPath())
+            if path in self._checked:
+                return
+            self._checked.add(path)
+            check_prim(self.notes, prim, self.where.time)
+            prim = prim.GetParent()
+
     def _local_mesh(self, prim):
         w = self.where
+        kind = str(prim.GetTypeName())
         if prim.IsA(UsdGeom.Sphere):
             radius = A.real(w, prim, "radius", 1.0, positive=True)
             return tessellate.sphere(radius)
@@ -269,15 +236,33 @@ class GprimReader:
             return points, triangles, None
         if prim.IsA(UsdGeom.Mesh):
             return self._mesh(prim)
-        kind = prim.GetTypeName()
-        if kind not in self._warned:
-            self._warned.add(kind)
-            warnings.warn(f"{w.file}: {prim.GetPath()}: {kind} gprims are not rendered "
-                          f"(supported: Mesh, Sphere, Cube)", stacklevel=3)
+        if kind in _SIZE_ATTRIBUTE:
+            return self._shape(prim, kind)
+        self.notes.warn(prim, None, f"{kind or 'untyped'} gprims are not rendered; skipped", "UnsupportedPrim")
         return None
 
+    def _shape(self, prim, kind: str):
+        """Cylinder, Cone, Capsule (and the _1 variants with two radii) and Plane."""
+        w = self.where
+        axis = A.token(w, prim, "axis", ("X", "Y", "Z"), "Z")
+        if kind == "Plane":
+            return tessellate.plane(A.real(w, prim, "width", 2.0, positive=True),
+                                    A.real(w, prim, "length", 2.0, positive=True), axis)
+        height = A.real(w, prim, "height", 1.0 if kind.startswith("Capsule") else 2.0, minimum=0.0)
+        if kind.endswith("_1"):
+            bottom = A.real(w, prim, "radiusBottom", 0.5 if kind.startswith("Capsule") else 1.0, minimum=0.0)
+            top = A.real(w, prim, "radiusTop", bottom, minimum=0.0)
+        else:
+            bottom = A.real(w, prim, "radius", 0.5 if kind == "Capsule" else 1.0, minimum=0.0)
+            top = 0.0 if kind == "Cone" else bottom
+        if kind.startswith("Capsule"):
+            return tessellate.capsule(bottom, top, height, axis)
+        if height == 0.0 or bottom == top == 0.0:
+            return None  # no surface
+        return tessellate.cylinder(bottom, top, height, axis)
+
     def _mesh(self, prim):
-        """points / faceVertexCounts / faceVertexIndices, validated, fan-triangulated."""
+        """points / faceVertexCounts / faceVertexIndices, validated, fan-triangulated, holes removed."""
         w = self.where
         points = A.vec3_array(w, prim, "points")
         counts = A.int_array(w, prim, "faceVertexCounts")
@@ -295,34 +280,82 @@ class GprimReader:
             i = int(np.argmax(bad))
             raise w.error(prim, "faceVertexIndices",
                           f"entry {i} = {int(indices[i])} is out of range for {len(points)} points")
-        triangles = fan_triangulate(counts, indices)
-        if len(triangles) == 0:
+        scheme = prim.GetAttribute("subdivisionScheme")
+        if scheme and scheme.HasAuthoredValue() and scheme.Get() not in (UsdGeom.Tokens.none, None):
+            self.subdivided.append(str(prim.GetPath()))
+        corners = fan_triangulate(counts, np.arange(len(indices)))  # triangles of face-corner ids
+        faces = np.repeat(np.arange(len(counts)), np.where(counts >= 3, counts - 2, 0))
+        holes = self._holes(prim)
+        if holes is not None:
+            keep = ~np.isin(faces, holes)
+            corners, faces = corners[keep], faces[keep]
+        if len(corners) == 0:
             return None
-        if UsdGeom.Mesh(prim).GetOrientationAttr().Get(DEFAULT_TIME) == UsdGeom.Tokens.leftHanded:
+        normals, per_corner = self._normals(prim, len(points), counts, len(indices))
+        if per_corner:  # faceVarying / uniform normals: one vertex per face corner, at the same place
+            points, triangles = points[indices], corners
+        else:
+            triangles = indices[corners]
+        if UsdGeom.Mesh(prim).GetOrientationAttr().Get(w.time) == UsdGeom.Tokens.leftHanded:
             triangles = triangles[:, [0, 2, 1]]
-        return points, triangles, self._vertex_normals(prim, len(points))
+        return points, np.ascontiguousarray(triangles, dtype=np.int64), normals
 
-    def _vertex_normals(self, prim, n_points: int):
-        """Per-point normals (vertex / varying interpolation) when authored, else None (flat)."""
+    def _holes(self, prim):
+        try:
+            return A.int_array(self.where, prim, "holeIndices")
+        except SceneError as exc:
+            self.notes.value_error(exc, "no face is a hole")
+            return None
+
+    def _normals(self, prim, n_points: int, counts, n_corners: int):
+        """(normals, per_corner): authored normals as per-point values (vertex / varying /
+        constant) or per face corner (faceVarying / uniform), else (None, False): flat
+        shading from the faces. Values that cannot be used are a warning."""
         primvar = UsdGeom.PrimvarsAPI(prim).GetPrimvar("normals")
         if primvar and primvar.HasAuthoredValue():
             attr, interp = primvar.GetAttr(), primvar.GetInterpolation()
         else:
             attr = prim.GetAttribute("normals")
             if not attr or not attr.HasAuthoredValue():
-                return None
-            interp = UsdGeom.Mesh(prim).GetNormalsInterpolation()
-        if interp not in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
-            return None
-        normals = A.vec3_array(self.where, prim, attr.GetName())
-        if normals is None or len(normals) != n_points:
-            return None
-        return normals
+                return None, False
+            interp, primvar = UsdGeom.Mesh(prim).GetNormalsInterpolation(), None
+        flat = "the faces' own (flat) normals are used"
+        try:
+            normals = A.vec3_array(self.where, prim, attr.GetName())
+        except SceneError as exc:
+            self.notes.value_error(exc, flat)
+            return None, False
+        if normals is None:
+            return None, False
+        if primvar is not None and primvar.IsIndexed():
+            index = np.asarray(primvar.GetIndices(self.where.time), dtype=np.int64)
+            if ((index < 0) | (index >= len(normals))).any():
+                self.notes.warn(prim, f"{attr.GetName()}:indices", f"has an entry out of range for "
+                                f"{len(normals)} normals; {flat}", "BadValue")
+                return None, False
+            normals = normals[index]
+        faces = np.repeat(np.arange(len(counts)), counts)
+        expected = {UsdGeom.Tokens.vertex: n_points, UsdGeom.Tokens.varying: n_points,
+                    UsdGeom.Tokens.faceVarying: n_corners, UsdGeom.Tokens.uniform: len(counts),
+                    UsdGeom.Tokens.constant: 1}
+        if interp not in expected or len(normals) != expected[interp]:
+            need = f"{interp} interpolation needs {expected[interp]}" if interp in expected else \
+                f"interpolation {interp!r} is unknown"
+            self.notes.warn(prim, attr.GetName(), f"has {len(normals)} values but {need}; {flat}", "BadValue")
+            return None, False
+        if interp == UsdGeom.Tokens.constant:
+            return np.repeat(normals, n_points, axis=0), False
+        if interp == UsdGeom.Tokens.faceVarying:
+            return normals, True
+        if interp == UsdGeom.Tokens.uniform:
+            return normals[faces], True
+        return normals, False
 
     # -- point instancers ---------------------------------------------------------
     def instancer_surfaces(self, prim) -> list[Surface]:
         """One surface per (visible instance, prototype gprim), in world space."""
-        world = world_transform(self.where, prim, lambda: self.xf.GetLocalToWorldTransform(prim))
+        self.check(prim)
+        world = world_transform(self.where, prim, lambda: self.xf.GetLocalToWorldTransform(prim), self.where.time)
         out = []
         for gprim, local, label in self._instanced_gprims(prim, depth=0):
             surface = self.surface(gprim, local * world, label)
@@ -353,14 +386,14 @@ class GprimReader:
             A.vec3_array(w, prim, name)  # typed, finite and within MAX_MAGNITUDE, or a SceneError
         try:
             xforms = instancer.ComputeInstanceTransformsAtTime(
-                DEFAULT_TIME, DEFAULT_TIME, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
+                w.time, w.time, UsdGeom.PointInstancer.IncludeProtoXform, UsdGeom.PointInstancer.IgnoreMask
             )
         except Tf.ErrorException:
             xforms = None
         if xforms is None or len(xforms) != len(proto_indices):
             raise w.error(prim, "positions", "instance transforms could not be computed (positions, "
                           "orientations, scales and protoIndices must have matching lengths)")
-        mask = instancer.ComputeMaskAtTime(DEFAULT_TIME) or []
+        mask = instancer.ComputeMaskAtTime(w.time) or []
         per_prototype = [self._prototype_gprims(prim.GetStage().GetPrimAtPath(p), depth) for p in prototypes]
         out = []
         for i, (instance_xf, j) in enumerate(zip(xforms, proto_indices)):
@@ -377,14 +410,15 @@ class GprimReader:
         out = []
         it = iter(Usd.PrimRange(root, _PROTOTYPE_PREDICATE))
         for prim in it:
-            if is_hidden(prim):
+            if is_hidden(prim, self.where.time):
                 it.PruneChildren()
                 continue
             if prim.IsA(UsdGeom.PointInstancer) or prim.IsA(UsdGeom.Gprim):
                 if prim == root:
                     rel = Gf.Matrix4d(1.0)
                 else:
-                    rel = world_transform(self.where, prim, lambda: self.xf.ComputeRelativeTransform(prim, root)[0])
+                    rel = world_transform(self.where, prim, lambda: self.xf.ComputeRelativeTransform(prim, root)[0],
+                                          self.where.time)
                 if prim.IsA(UsdGeom.PointInstancer):
                     out.extend((g, m * rel, lbl) for g, m, lbl in self._instanced_gprims(prim, depth + 1))
                     it.PruneChildren()

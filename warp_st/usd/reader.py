@@ -10,14 +10,21 @@ One traversal in stage order (instance proxies included) collects:
   render settings (UsdRender.Settings) with their products and vars
   (``products``).
 
-Everything but the camera is read at the default time code: the 4D database is
-static and animation comes only from advancing the camera's time. The camera is
-evaluated per frame by :class:`~warp_st.usd.camera.CameraEvaluator`
-(``Scene.camera_state``).
+Everything but the camera is read once, at the stage's start time code (our
+``spacetime:`` attributes at the default time code): the 4D database is static and
+animation comes only from advancing the camera's time. The camera is evaluated per
+frame by :class:`~warp_st.usd.camera.CameraEvaluator` (``Scene.camera_state``); a
+stage without one is seen through a default camera framing its bounds.
+
+What the stage says and the renderer does not honour is listed in
+``Scene.diagnostics`` (``diagnostics``): warnings that ``render`` prints and
+``validate`` lists, the same list. Real-world USD problems (an arc that does not
+compose, a bad primvar) are warnings; our own ``spacetime:`` attributes are strict.
 
 Module map: ``stage`` opens files, ``attributes`` reads typed and validated
-values, ``geometry`` turns gprims into world-space triangles, ``camera``
-evaluates the camera per frame.
+values, ``geometry`` turns gprims into world-space triangles, ``materials`` reads
+their materials, ``camera`` evaluates the camera per frame, ``diagnostics`` says
+what is not honoured.
 """
 from __future__ import annotations
 
@@ -27,19 +34,20 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdSkel
 
-from warp_st.core.conventions import Precision
+from warp_st.core.conventions import DEFAULT_RESOLUTION, Precision
 from warp_st.core.limits import MAX_BOUNCES, MAX_MAGNITUDE, MAX_PIXELS, MAX_SAMPLES
-from warp_st.core.scene import Body, Light, RenderSettings, Scene, SceneError, Surface
+from warp_st.core.scene import DEFAULT_CAMERA, Body, Light, RenderSettings, Scene, SceneError, Surface
 from warp_st.usd import attributes as A
-from warp_st.usd.attributes import DEFAULT_TIME, SPACETIME_BODY_API, Where, body_kinematics, has_api
-from warp_st.usd.camera import CameraEvaluator
+from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
+from warp_st.usd.camera import CameraEvaluator, frame_bounds
+from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
 from warp_st.usd.geometry import GprimReader, is_hidden, world_transform
 from warp_st.usd.products import read_products
 from warp_st.usd.stage import open_stage, tf_message
 
-__all__ = ["load_scene", "open_stage", "CameraEvaluator", "body_kinematics"]
+__all__ = ["load_scene", "read_stage", "open_stage", "CameraEvaluator", "body_kinematics"]
 
 _PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
 
@@ -55,6 +63,7 @@ class _BodyBuilder:
     lifetime: tuple[float, float] = (-math.inf, math.inf)
     decoupled: bool = False
     surfaces: list[Surface] = field(default_factory=list)
+    api: bool = False  # carries SpacetimeBodyAPI (else: a gprim at rest, a body of its own)
 
     def build(self) -> Body:
         return Body(self.prim_path, tuple(self.surfaces), self.origin, self.velocity,
@@ -69,39 +78,66 @@ def _translation(matrix: Gf.Matrix4d) -> np.ndarray:
 class _StageReader:
     def __init__(self, stage: Usd.Stage, where: Where):
         self.stage = stage
-        self.where = where
-        self.xf = UsdGeom.XformCache(DEFAULT_TIME)
-        self.gprims = GprimReader(where, self.xf)
+        self.where = Where(where.file, static_time(stage))
+        self.notes = Notes(where.file)
+        self.notes.count_samples = samples_listable(stage)
+        self.xf = UsdGeom.XformCache(self.where.time)
+        self.gprims = GprimReader(self.where, self.xf, self.notes)
         self.bodies: list[_BodyBuilder] = []
         self.lights: list[Light] = []
         self.cameras: list[str] = []
         self.settings_prims: list = []
-        self._warned: set[str] = set()
         self._current = None
 
     def read(self, *, reopen: str | None = None, no_references: bool = False) -> Scene:
+        composition(self.notes, self.stage)
         self._traverse()
         settings_prim = self._settings_prim()
         settings = self._render_settings(settings_prim)
         products = () if settings_prim is None else read_products(self.where, self.stage, settings_prim,
                                                                    self._resolution)
+        if settings_prim is not None:
+            check_prim(self.notes, settings_prim, self.where.time)
+        if self.gprims.subdivided:
+            first, more = self.gprims.subdivided[0], len(self.gprims.subdivided) - 1
+            others = f" (and {more} more mesh{'es' if more > 1 else ''})" if more else ""
+            self.notes.warn(first, "subdivisionScheme", f"subdivision surfaces are not refined{others}: they render "
+                                                         "their control cage (the authored polygons)", "Subdivision")
+        for body in self.bodies:
+            if not body.surfaces and body.api:
+                self.notes.warn(body.prim_path, None, "has SpacetimeBodyAPI but no visible supported geometry of its "
+                                                      "own: nothing of this body is rendered", "EmptyBody")
+        bodies = tuple(b.build() for b in self.bodies if b.surfaces)
         cameras = tuple(self.cameras)
-        default_camera = settings.camera or (cameras[0] if cameras else None)
+        framing = None
+        if bodies:
+            framing = frame_bounds(*_bounds(bodies, self.stage), str(UsdGeom.GetStageUpAxis(self.stage)),
+                                   _aspect(settings.resolution))
+        if not cameras and framing is None:
+            self.notes.warn(None, None, "the stage has no camera and no supported visible geometry: there is nothing "
+                                        "to render (as a layer to reference it is fine)", "NothingToRender")
+        elif not cameras:
+            self.notes.info(None, None, f"the stage has no camera (UsdGeom.Camera): it renders through the default "
+                                        f"camera, {framing.describe()}, framing the stage's bounds", "DefaultCamera")
+        default_camera = settings.camera or (cameras[0] if cameras else DEFAULT_CAMERA)
         frame_range = None
         if self.stage.HasAuthoredTimeCodeRange():
             frame_range = (float(self.stage.GetStartTimeCode()), float(self.stage.GetEndTimeCode()))
         return Scene(
             source=self.where.file,
-            bodies=tuple(b.build() for b in self.bodies if b.surfaces),
+            bodies=bodies,
             lights=tuple(self.lights),
             cameras=cameras,
             settings=settings,
             camera_state=CameraEvaluator(self.stage, self.where, cameras, default_camera,
-                                         reopen=reopen, no_references=no_references),
+                                         reopen=reopen, no_references=no_references, framing=framing),
             up_axis=str(UsdGeom.GetStageUpAxis(self.stage)),
             frame_range=frame_range,
             default_camera=default_camera,
             products=products,
+            diagnostics=self.notes.items(),
+            meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(self.stage)),
+            time_codes_per_second=float(self.stage.GetTimeCodesPerSecond()),
         )
 
     def _traverse(self) -> None:
@@ -116,11 +152,16 @@ class _StageReader:
             raise self.where.error(self._current, None, f"cannot be read: {tf_message(exc)}") from None
 
     def _visit_all(self, it, hidden, owners) -> None:
+        notes, time = self.notes, self.where.time
+        skipped = {p for p, a in A.MASKED.get() if a is None}  # validate's masked reads skip these subtrees
         for prim in it:
             self._current = prim
             if prim.IsPseudoRoot():
                 continue
             path = prim.GetPath()
+            if skipped and str(path) in skipped:
+                it.PruneChildren()
+                continue
             if hidden is not None and not path.HasPrefix(hidden):
                 hidden = None
             while owners and not path.HasPrefix(owners[-1][0]):
@@ -129,20 +170,27 @@ class _StageReader:
                 self.cameras.append(str(path))
                 if has_api(prim, SPACETIME_BODY_API):
                     body_kinematics(self.where, prim)  # validated now, used per frame
+                check_prim(notes, prim, time, samples=False)  # a camera is evaluated per frame
                 continue
             if prim.IsA(UsdRender.Settings):
                 self.settings_prims.append(prim)
                 it.PruneChildren()
                 continue
-            if hidden is None and is_hidden(prim):
+            if hidden is None and is_hidden(prim, time):
                 hidden = path
             if has_api(prim, SPACETIME_BODY_API):
                 v, t_ref, life, decoupled = body_kinematics(self.where, prim)
-                body = _BodyBuilder(str(path), _translation(self._world(prim)), v, t_ref, life, decoupled)
+                body = _BodyBuilder(str(path), _translation(self._world(prim)), v, t_ref, life, decoupled, api=True)
                 owners.append((path, body))
                 self.bodies.append(body)
             if hidden is not None:
                 continue
+            why = unknown_type(prim)
+            if why:
+                notes.warn(prim, None, why, "UnsupportedPrim")
+            if prim.IsA(UsdSkel.Root):
+                notes.warn(prim, None, "UsdSkel skinning is not applied: the meshes below render as authored "
+                                       "(their bind pose)", "NotHonoured")
             if prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
                 self._light(prim)
             elif prim.IsA(UsdGeom.PointInstancer):
@@ -155,7 +203,7 @@ class _StageReader:
 
     def _world(self, prim) -> Gf.Matrix4d:
         """The prim's world transform, finite and within MAX_MAGNITUDE (else SceneError naming the op)."""
-        return world_transform(self.where, prim, lambda: self.xf.GetLocalToWorldTransform(prim))
+        return world_transform(self.where, prim, lambda: self.xf.GetLocalToWorldTransform(prim), self.where.time)
 
     def _owner(self, owners: list[tuple[Sdf.Path, _BodyBuilder]], prim) -> _BodyBuilder:
         """The nearest enclosing body, else a new body at rest at the prim's world origin."""
@@ -170,12 +218,11 @@ class _StageReader:
         """SphereLight: a point at its world position; DistantLight: from its local +Z (docs/spec.md §3)."""
         w = self.where
         if not (prim.IsA(UsdLux.SphereLight) or prim.IsA(UsdLux.DistantLight)):
-            kind = prim.GetTypeName()
-            if kind not in self._warned:
-                self._warned.add(kind)
-                warnings.warn(f"{w.file}: {prim.GetPath()}: {kind} is not supported (SphereLight, "
-                              "DistantLight) and is ignored", stacklevel=2)
+            why = ("environment lighting is not supported yet" if prim.IsA(UsdLux.DomeLight)
+                   else "only SphereLight and DistantLight are")
+            self.notes.warn(prim, None, f"{prim.GetTypeName()} is not supported ({why}); ignored", "UnsupportedPrim")
             return
+        self.gprims.check(prim)
         intensity = A.real(w, prim, "inputs:intensity", 1.0, minimum=0.0)
         exposure = A.real(w, prim, "inputs:exposure", 0.0)
         color = A.vector(w, prim, "inputs:color", 3, (1.0, 1.0, 1.0))
@@ -252,15 +299,48 @@ def _tuple(v):
     return None if v is None else tuple(float(c) for c in v)
 
 
+def _aspect(resolution) -> float:
+    width, height = resolution or DEFAULT_RESOLUTION
+    return width / height
+
+
+def _bounds(bodies, stage) -> tuple[np.ndarray, np.ndarray]:
+    """World bounds of every triangle's vertices; a moving body's over the stage's
+    time-code range (lab time = time code for a camera at rest), else at its reference time."""
+    times = {float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode())}
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for body in bodies:
+        shifts = [np.zeros(3)] if not body.velocity.any() else [body.velocity * (t - body.reference_time)
+                                                                  for t in times]
+        for surface in body.surfaces:
+            points = surface.points[np.unique(surface.triangles)]
+            for shift in shifts:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    moved = points + shift
+                lo, hi = np.fmin(lo, moved.min(axis=0)), np.fmax(hi, moved.max(axis=0))
+    return lo, hi
+
+
 def load_scene(source, *, no_references: bool = False) -> Scene:
     """Read a USD stage (a path or a ``Usd.Stage``) into a :class:`Scene`.
 
-    Raises :class:`SceneError` (one line naming the file, prim and attribute) for
-    anything that cannot be rendered as the stage says. ``no_references=True``
+    Raises :class:`SceneError` (one line naming the file, prim and attribute) for a
+    stage that cannot be opened or holds nothing to render, and for bad values of our
+    own ``spacetime:`` attributes (and geometry that cannot be built); what the reader
+    leaves out is a Python warning each (``Scene.diagnostics``). ``no_references=True``
     composes only the file's own layers (see :func:`open_stage`).
     """
     stage, where = open_stage(source, no_references=no_references)
     reopen = None if isinstance(source, Usd.Stage) else os.path.abspath(os.fspath(source))
+    scene = read_stage(stage, where, reopen=reopen, no_references=no_references)
+    for note in scene.diagnostics:
+        if note.severity == "warning":
+            warnings.warn(note.text(), stacklevel=2)
+    return scene
+
+
+def read_stage(stage: Usd.Stage, where: Where, *, reopen: str | None = None, no_references: bool = False) -> Scene:
+    """The :class:`Scene` of an open stage, its diagnostics not emitted (``load_scene`` warns them)."""
     try:
         return _StageReader(stage, where).read(reopen=reopen, no_references=no_references)
     except (Tf.ErrorException, UnicodeDecodeError) as exc:  # a value USD cannot unpack outside the traversal

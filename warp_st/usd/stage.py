@@ -1,4 +1,6 @@
-"""Opening a USD stage: any failure becomes one SceneError line naming the file."""
+"""Opening a USD stage: a root layer that cannot be opened is one SceneError line naming the
+file; what does not compose (a missing reference, payload or sublayer) is a warning of the
+reader's (``warp_st.usd.diagnostics.composition``), and what composed is rendered."""
 from __future__ import annotations
 
 import os
@@ -22,8 +24,8 @@ def open_stage(source, *, no_references: bool = False) -> tuple[Usd.Stage, Where
     and its sublayers): references and payloads are removed by an explicit empty
     list op authored in the session layer *before* the stage is composed, and
     payloads are not loaded. Best effort: arcs authored inside variants are still
-    composed, and a ``Usd.Stage`` passed in is used as already composed. Without it, an arc that cannot be resolved (a missing referenced
-    file) is an error rather than silently missing geometry.
+    composed, and a ``Usd.Stage`` passed in is used as already composed. An arc that
+    cannot be resolved (a missing referenced file) is left out, and the reader warns.
     """
     with captured_output() as printed:
         if isinstance(source, Usd.Stage):
@@ -31,16 +33,18 @@ def open_stage(source, *, no_references: bool = False) -> tuple[Usd.Stage, Where
             stage, label = source, root.realPath or root.identifier
         else:
             stage, label = _open_file(os.fspath(source), no_references)
-        if not no_references:
-            errors = [" ".join(_safe_str(e).split()) for e in stage.GetCompositionErrors()]
-            if errors:
-                more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
-                raise SceneError.at(label, None, None, f"composition error: {errors[0]}{more}")
-    # USD's own diagnostics of a stage that opened are worth seeing; those of one that
-    # failed are summarised by the SceneError's single line, so they were dropped.
-    if printed and printed[0].strip():
-        print(printed[0].rstrip(), file=sys.stderr)
+    # USD's own diagnostics of a stage that opened are worth seeing (but not its reports of
+    # composition errors: the reader warns of each in one line); those of one that failed
+    # are summarised by the SceneError's single line, so they were dropped.
+    text = "\n".join(line for line in (printed[0] if printed else "").splitlines()
+                     if line.strip() and _COMPOSITION_REPORT not in line)
+    if text:
+        print(text, file=sys.stderr)
     return stage, Where(label)
+
+
+#: How USD prints each composition error when a stage opens.
+_COMPOSITION_REPORT = "in _ReportErrors at line"
 
 
 def _open_file(label: str, no_references: bool) -> tuple[Usd.Stage, str]:
@@ -72,13 +76,6 @@ def _refresh_open_layer(label: str) -> None:
     layer = Sdf.Layer.Find(label)
     if layer is not None and not layer.dirty:
         layer.Reload(force=True)
-
-
-def _safe_str(obj) -> str:
-    try:
-        return str(obj)
-    except UnicodeDecodeError:
-        return f"{type(obj).__name__} (its text is not UTF-8)"
 
 
 def tf_message(exc: Exception) -> str:

@@ -10,23 +10,22 @@ problem the function runs again with the attribute it named read as unauthored
 
 Registered with ``UsdValidation.ValidationRegistry`` (Python registration, keyword
 ``warpSt``; no ``schemaTypes``, because a stage authored without the schemas
-loaded must validate the same, docs/spec.md §2):
+loaded must validate the same, docs/spec.md §2), they report errors only:
 
 - ``warpSt:SpacetimeBody``: SpacetimeBodyAPI values (types, |v| >= 1 on a coupled
-  body, t <= 0, lifetime order, NaN / inf); a warning when the body has no visible
-  supported geometry (the reader drops it).
-- ``warpSt:Geometry``: Mesh / Sphere / Cube / PointInstancer data and transforms;
-  a warning for other gprims (Capsule, Cylinder, Cone, BasisCurves, Points,
-  Volume, ...), which are not rendered.
-- ``warpSt:Light``: SphereLight / DistantLight values; a warning for other lights.
-- ``warpSt:Stage``: a camera exists (a warning: an asset meant to be referenced
-  has none), the render settings and their products, each camera at the stage's
+  body, t <= 0, lifetime order, NaN / inf) and the body's pivot transform.
+- ``warpSt:Geometry``: the data and transforms of the gprims and PointInstancers read.
+- ``warpSt:Light``: SphereLight / DistantLight values.
+- ``warpSt:Stage``: the render settings and their products, each camera at the stage's
   start and end time codes and its own time samples.
 
-Built-in validators run beside them (:data:`BUILTIN`): composition errors, material
-bindings without MaterialBindingAPI, a missing upAxis. ``AttributeTypeMismatch`` is
-not used: it requires the schema's exact type (double4) where docs/spec.md §2 accepts float
-variants, and it knows nothing of a stage read without the schemas.
+Warnings and information are the reader's diagnostics (``Scene.diagnostics``, the list
+``render`` prints): :func:`validate_stage` reads the stage with every erroneous
+attribute masked and lists them, so the two commands cannot disagree. Built-in
+validators run beside them (:data:`BUILTIN`) as advice: material bindings without
+MaterialBindingAPI, a missing upAxis. ``AttributeTypeMismatch`` is not used: it requires
+the schema's exact type (double4) where docs/spec.md §2 accepts float variants, and it
+knows nothing of a stage read without the schemas.
 """
 from __future__ import annotations
 
@@ -37,7 +36,7 @@ from dataclasses import asdict, dataclass
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdValidation
 
 from warp_st.core.scene import SceneError
-from warp_st.usd.attributes import MASKED, SPACETIME_BODY_API, Where, body_kinematics, has_api
+from warp_st.usd.attributes import MASKED, SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
 from warp_st.usd.camera import CameraEvaluator
 from warp_st.usd.geometry import SUPPORTED_GPRIMS, GprimReader, is_hidden, world_transform
 from warp_st.usd.stage import tf_message
@@ -49,7 +48,6 @@ KEYWORD = "warpSt"
 #: Built-in validators run by :func:`validate_stage`: name -> (severity override or
 #: None to keep USD's, the error names reported or None for all).
 BUILTIN = {
-    "usdValidation:CompositionErrorTest": (None, None),
     "usdShadeValidators:MaterialBindingApiAppliedValidator": ("warning", None),
     "usdGeomValidators:StageMetadataChecker": ("warning", {"MissingUpAxisMetadata"}),
 }
@@ -216,26 +214,18 @@ def _pruned(prim) -> bool:
 
 
 def _hidden(prim) -> bool:
-    """The prim or an ancestor is invisible or has the guide / proxy purpose."""
+    """The prim or an ancestor is invisible or has the guide / proxy purpose (at the
+    stage's static time, as the reader reads it)."""
+    time = _where(prim.GetStage()).time
     while prim and not prim.IsPseudoRoot():
-        if is_hidden(prim):
+        if is_hidden(prim, time):
             return True
         prim = prim.GetParent()
     return False
 
 
-def _owns_geometry(body) -> bool:
-    """True when a visible supported gprim or PointInstancer belongs to ``body`` (the
-    nearest SpacetimeBodyAPI ancestor wins)."""
-    it = iter(Usd.PrimRange(body, PREDICATE))
-    for prim in it:
-        if prim != body and has_api(prim, SPACETIME_BODY_API) and not prim.IsA(UsdGeom.Camera):
-            it.PruneChildren()
-        elif prim.IsA(UsdRender.Settings) or is_hidden(prim):
-            it.PruneChildren()
-        elif prim.IsA(UsdGeom.PointInstancer) or any(prim.IsA(t) for t in SUPPORTED_GPRIMS):
-            return True
-    return False
+def _where(stage) -> Where:
+    return Where(_file_of(stage), static_time(stage))
 
 
 # --- the validators -----------------------------------------------------------------------
@@ -245,17 +235,13 @@ def _spacetime_body(prim) -> list:
     if prim.IsPseudoRoot() or _pruned(prim) or prim.IsA(UsdRender.Settings) or not has_api(prim, SPACETIME_BODY_API):
         return []
     stage = prim.GetStage()
-    where = Where(_file_of(stage))
+    where = _where(stage)
     errors = _errors(stage, lambda: body_kinematics(where, prim))
     if prim.IsA(UsdGeom.Camera):
         return errors
-    xf = UsdGeom.XformCache(Usd.TimeCode.Default())  # its pivot o (docs/spec.md §2), as the reader reads it
-    errors += _errors(stage, lambda: world_transform(where, prim, lambda: xf.GetLocalToWorldTransform(prim)),
-                      every=False)
-    if not _owns_geometry(prim):
-        errors.append(_error(stage, "warning", str(prim.GetPath()), None,
-                             "has SpacetimeBodyAPI but no visible Mesh, Sphere, Cube or PointInstancer of its own: "
-                             "nothing of this body is rendered", "EmptyBody"))
+    xf = UsdGeom.XformCache(where.time)  # its pivot o (docs/spec.md §2), as the reader reads it
+    errors += _errors(stage, lambda: world_transform(where, prim, lambda: xf.GetLocalToWorldTransform(prim),
+                                                     where.time), every=False)
     return errors
 
 
@@ -265,10 +251,9 @@ def _geometry(prim) -> list:
         return []
     stage = prim.GetStage()
     if not (is_instancer or any(prim.IsA(t) for t in SUPPORTED_GPRIMS)):
-        return [_error(stage, "warning", str(prim.GetPath()), None,
-                       f"{prim.GetTypeName()} gprims are not rendered (supported: Mesh, Sphere, Cube, "
-                       "PointInstancer); ignored", "UnsupportedPrim")]
-    reader = GprimReader(Where(_file_of(stage)), UsdGeom.XformCache(Usd.TimeCode.Default()))
+        return []  # not rendered: a warning of the reader's
+    where = _where(stage)
+    reader = GprimReader(where, UsdGeom.XformCache(where.time))
     call = (lambda: reader.instancer_surfaces(prim)) if is_instancer else (lambda: reader.surface(prim))
     return _errors(stage, call, every=False)
 
@@ -280,9 +265,7 @@ def _light(prim) -> list:
         return []
     stage = prim.GetStage()
     if not (prim.IsA(UsdLux.SphereLight) or prim.IsA(UsdLux.DistantLight)):
-        return [_error(stage, "warning", str(prim.GetPath()), None,
-                       f"{prim.GetTypeName()} is not supported (SphereLight, DistantLight); ignored",
-                       "UnsupportedPrim")]
+        return []  # ignored: a warning of the reader's
     from warp_st.usd.reader import _StageReader
 
     return _errors(stage, lambda: _StageReader(stage, Where(_file_of(stage)))._light(prim))
@@ -323,9 +306,6 @@ def _stage(stage) -> list:
         elif prim.IsA(UsdGeom.PointInstancer):
             it.PruneChildren()
     errors = []
-    if not cameras:
-        errors.append(_error(stage, "warning", None, None, "the stage has no camera (UsdGeom.Camera): it cannot be "
-                             "rendered on its own (as a layer to reference it is fine)", "NoCamera"))
     reader = _StageReader(stage, where)
     reader.settings_prims = settings_prims
     chosen = []
@@ -357,13 +337,10 @@ def _stage(stage) -> list:
 
 
 _VALIDATORS = {
-    "warpSt:SpacetimeBody": ("prim", _spacetime_body,
-                             "SpacetimeBodyAPI values are valid (docs/spec.md §2) and the body has geometry."),
-    "warpSt:Geometry": ("prim", _geometry, "Mesh, Sphere, Cube and PointInstancer data can be rendered; "
-                                           "other gprims are reported as ignored."),
-    "warpSt:Light": ("prim", _light, "SphereLight and DistantLight values are valid; other lights are ignored."),
-    "warpSt:Stage": ("stage", _stage, "The stage has a camera; render settings and cameras (at the stage's "
-                                      "time codes) are valid."),
+    "warpSt:SpacetimeBody": ("prim", _spacetime_body, "SpacetimeBodyAPI values are valid (docs/spec.md §2)."),
+    "warpSt:Geometry": ("prim", _geometry, "The data of the gprims and PointInstancers read can be rendered."),
+    "warpSt:Light": ("prim", _light, "SphereLight and DistantLight values are valid."),
+    "warpSt:Stage": ("stage", _stage, "Render settings and cameras (at the stage's time codes) are valid."),
 }
 
 
@@ -425,17 +402,19 @@ def validate_stage(stage: Usd.Stage, file: str, *, no_references: bool = False):
     """(problems, scene): every problem of ``stage`` in stage order (duplicates dropped),
     and the :class:`~warp_st.core.scene.Scene` the reader makes of it (None when it cannot).
 
-    ``file`` names the stage in the problems. When the validators find no error the
-    reader itself reads the stage too, and a SceneError it raises is a problem, so a
-    stage without errors always loads.
+    ``file`` names the stage in the problems. The validators give the errors; the
+    reader's diagnostics (``Scene.diagnostics``, what ``render`` prints) give the
+    warnings and information: when there is an error they come from reading the stage
+    with each erroneous attribute masked. When the validators find no error the reader
+    itself reads the stage, and a SceneError it raises is a problem, so a stage without
+    errors always loads.
     """
     from warp_st.usd.reader import load_scene
 
     register()
     registry = UsdValidation.ValidationRegistry()
     validators = [registry.GetOrLoadValidatorByName(n) for n in (*_VALIDATORS, *BUILTIN)]
-    with _lock, warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    with _lock:
         _active.update(stage=stage, file=file, failures=[])
         try:
             errors = UsdValidation.ValidationContext([v for v in validators if v]).Validate(stage, PREDICATE)
@@ -445,28 +424,54 @@ def validate_stage(stage: Usd.Stage, file: str, *, no_references: bool = False):
     if failures:
         raise failures[0]
     problems = _problems(errors, file)
-    for w in caught:  # the reader's own warnings (e.g. an unsupported gprim in a prototype)
-        text = " ".join(str(w.message).split())
-        if not text.startswith(file + ": "):
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-            continue
-        prim, attribute, message = _parse(text, file)
-        problems.append(Problem("warning", file, prim, attribute, message, "warpSt:Reader"))
-    scene = None
+    scene, notes = None, None
     if not any(p.severity == "error" for p in problems):
         try:
-            with warnings.catch_warnings():  # unsupported prims are already warnings above
+            with warnings.catch_warnings():  # they are the scene's diagnostics, listed below
                 warnings.simplefilter("ignore")
                 scene = load_scene(stage, no_references=no_references)
+            notes = scene.diagnostics
         except SceneError as exc:  # it names the stage by its real path
             root = stage.GetRootLayer()
             prim, attribute, message = _parse(str(exc), file, root.realPath, root.identifier)
             problems.append(Problem("error", file, prim, attribute, message, "warpSt:Reader"))
+    if notes is None:
+        notes = reader_diagnostics(stage, file, {(p.prim, p.attribute) for p in problems if p.severity == "error"})
+    problems += [Problem(d.severity, file, d.prim, d.attribute, d.message, "warpSt:Reader") for d in notes]
     order = _order(stage)
     unique = {(p.severity, p.prim, p.attribute, p.message): p for p in reversed(problems)}  # the first of each
     problems = sorted(unique.values(), key=lambda p: (order.get(p.prim or "/", -1), p.severity != "error",
                                                       p.attribute or "", p.message))
     return problems, scene
+
+
+def reader_diagnostics(stage: Usd.Stage, file: str, masked, limit: int = 64) -> tuple:
+    """The reader's diagnostics of a stage that has errors: it reads the stage with the
+    ``masked`` (prim, attribute) pairs read as unauthored, and again after each SceneError
+    with the attribute it names masked too (the prim's whole subtree skipped when that
+    does not help, or the error names no attribute), until it reads through (an error
+    that names no prim: the diagnostics found up to there)."""
+    from warp_st.usd.reader import _StageReader
+
+    masked = {key for key in masked if key[0] is not None}
+    notes = ()
+    for _ in range(limit):
+        reader = _StageReader(stage, Where(file))
+        token = MASKED.set(frozenset(masked))
+        try:
+            reader.read()
+            return reader.notes.items()
+        except SceneError as exc:
+            notes = reader.notes.items()
+            _, prim, attribute, _ = getattr(exc, "where", (None, None, None, None))
+            if prim is None or (prim, None) in masked:
+                return notes
+            masked.add((prim, None) if attribute is None or (prim, attribute) in masked else (prim, attribute))
+        except (Tf.ErrorException, UnicodeDecodeError):
+            return reader.notes.items()
+        finally:
+            MASKED.reset(token)
+    return notes
 
 
 def counts(problems) -> dict[str, int]:

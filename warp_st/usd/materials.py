@@ -1,0 +1,165 @@
+"""Bound UsdPreviewSurface materials → :class:`Material`, with ``displayColor`` as the fallback.
+
+Honoured: a UsdPreviewSurface on the material's universal ``outputs:surface`` (bound for
+the ``full`` purpose), its ``diffuseColor``, ``emissiveColor`` and ``metallic`` (the
+weight of a perfect mirror, docs/spec.md §2). Everything else a bound material says is a
+warning naming the prim and the attribute (``warp_st.usd.diagnostics``): other shaders
+and render contexts (MaterialX), inputs driven by textures or other shaders, the other
+UsdPreviewSurface inputs when they differ from the shader's defaults, per-face
+(GeomSubset) bindings, per-vertex display colours. A value of the wrong type is a warning
+too, and the default is used.
+"""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+from pxr import Sdr, UsdGeom, UsdShade
+
+from warp_st.core.scene import Material, SceneError
+from warp_st.usd import attributes as A
+from warp_st.usd.attributes import Where
+from warp_st.usd.diagnostics import Notes, same_value
+
+__all__ = ["MaterialReader"]
+
+#: UsdPreviewSurface inputs the renderer uses.
+HONOURED_INPUTS = ("diffuseColor", "emissiveColor", "metallic")
+
+
+@functools.cache
+def _preview_defaults() -> dict:
+    """UsdPreviewSurface's input defaults, from USD's shader registry."""
+    node = Sdr.Registry().GetShaderNodeByIdentifier("UsdPreviewSurface")
+    if not node:  # pragma: no cover - usd-core ships the definition
+        return {}
+    return {name: node.GetShaderInput(name).GetDefaultValue() for name in node.GetShaderInputNames()}
+
+
+class MaterialReader:
+    """``reader(gprim) -> Material``; the warnings go to ``notes``."""
+
+    def __init__(self, where: Where, notes: Notes):
+        self.where = where
+        self.notes = notes
+        self._by_material: dict[str, Material | None] = {}
+
+    def __call__(self, prim) -> Material:
+        binding = UsdShade.MaterialBindingAPI(prim)
+        for subset in binding.GetMaterialBindSubsets():
+            if UsdShade.MaterialBindingAPI(subset.GetPrim()).GetDirectBinding().GetMaterial():
+                self.notes.warn(subset.GetPrim(), "material:binding", "per-face materials (GeomSubset bindings) are "
+                                "not supported yet; the mesh's own material is used for every face", "NotHonoured")
+        material, _ = binding.ComputeBoundMaterial(UsdShade.Tokens.full)
+        if material:
+            key = str(material.GetPath())
+            if key not in self._by_material:
+                self._by_material[key] = self._preview_surface(material)
+            if self._by_material[key] is not None:
+                return self._by_material[key]
+        return self._display_color(prim)
+
+    def _preview_surface(self, material) -> Material | None:
+        source = material.ComputeSurfaceSource()
+        shader = source[0] if isinstance(source, tuple) else source
+        instead = "displayColor is used"
+        if not shader:
+            others = [o.GetFullName() for o in material.GetSurfaceOutputs() if o.GetFullName() != "outputs:surface"]
+            if others:
+                self.notes.warn(material.GetPrim(), others[0], "only a UsdPreviewSurface on outputs:surface is "
+                                f"supported (not this render context's shading, e.g. MaterialX); {instead}",
+                                "UnsupportedShader")
+            else:
+                self.notes.warn(material.GetPrim(), "outputs:surface", f"has no surface shader; {instead}",
+                                "UnsupportedShader")
+            return None
+        shader_id = shader.GetShaderId()
+        if shader_id != "UsdPreviewSurface":
+            self.notes.warn(material.GetPrim(), "outputs:surface",
+                            f"its shader {shader.GetPath()} is {str(shader_id or 'not identified')!r}, not "
+                            f"UsdPreviewSurface, which is the only one supported; {instead}", "UnsupportedShader")
+            return None
+        defaults = Material()
+        material_out = Material(
+            diffuse=tuple(self._input(shader, "diffuseColor", 3, defaults.diffuse)),
+            emissive=tuple(self._input(shader, "emissiveColor", 3, defaults.emissive)),
+            metallic=float(np.clip(self._input(shader, "metallic", 1, (defaults.metallic,))[0], 0.0, 1.0)),
+        )
+        self._other_inputs(shader)
+        return material_out
+
+    def _input(self, shader, name: str, size: int, fallback):
+        """The input's value, following connections to the value-producing attribute.
+
+        A connection to another shader's output (a texture) cannot be evaluated here: a
+        warning, and the input's own authored value, else the UsdPreviewSurface default.
+        A value of the wrong type: a warning, and the default."""
+        inp = shader.GetInput(name)
+        if not inp:
+            return [float(x) for x in fallback]
+        attr = inp.GetAttr()
+        producers = inp.GetValueProducingAttributes()
+        if producers and UsdShade.Output.IsOutput(producers[0]):
+            self._connected(shader, inp, producers[0], "its own value, else the default, is used")
+        elif producers:
+            attr = producers[0]
+        prim, attr_name = attr.GetPrim(), attr.GetName()
+        try:
+            if size == 1:
+                return [A.real(self.where, prim, attr_name, fallback[0])]
+            return [float(x) for x in A.vector(self.where, prim, attr_name, size, fallback)]
+        except SceneError as exc:
+            self.notes.value_error(exc, f"the UsdPreviewSurface default {tuple(fallback)} is used")
+            return [float(x) for x in fallback]
+
+    def _connected(self, shader, inp, output, instead: str) -> None:
+        source = UsdShade.Shader(output.GetPrim())
+        source_id = str(source.GetShaderId() or "") if source else ""
+        what = ("textures (UsdUVTexture) are not supported yet" if source_id == "UsdUVTexture"
+                else "shader networks are not evaluated")
+        self.notes.warn(shader.GetPrim(), inp.GetFullName(), f"is connected to {output.GetPrim().GetPath()} "
+                        f"({source_id or 'no shader id'}): {what}; {instead}", "NotHonoured")
+
+    def _other_inputs(self, shader) -> None:
+        """Warnings for authored UsdPreviewSurface inputs the renderer does not use."""
+        defaults = _preview_defaults()
+        for inp in shader.GetInputs():
+            name = inp.GetBaseName()
+            if name in HONOURED_INPUTS:
+                continue
+            producers = inp.GetValueProducingAttributes()
+            if producers and UsdShade.Output.IsOutput(producers[0]):
+                self._connected(shader, inp, producers[0], "ignored")
+                continue
+            attr = producers[0] if producers else inp.GetAttr()
+            if not attr.HasAuthoredValue():
+                continue
+            value = attr.Get(self.where.time)
+            if name in defaults and same_value(value, defaults[name]):
+                continue  # the default: the same picture as not authoring it
+            why = ("not honoured (the surface is Lambert diffuse plus a metallic mirror)" if name in defaults
+                   else "not a UsdPreviewSurface input")
+            self.notes.warn(shader.GetPrim(), inp.GetFullName(), f"{why}; ignored", "NotHonoured")
+
+    def _display_color(self, prim) -> Material:
+        primvar = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance("displayColor")
+        if not (primvar and primvar.HasValue()):
+            return Material()
+        attr = primvar.GetAttr()
+        try:
+            colors = A.vec3_array(self.where, attr.GetPrim(), attr.GetName())
+        except SceneError as exc:
+            self.notes.value_error(exc, f"the default colour {Material().diffuse} is used")
+            return Material()
+        if colors is None or not len(colors):
+            return Material()
+        first = 0
+        if primvar.IsIndexed():
+            indices = primvar.GetIndices(self.where.time)
+            first = int(indices[0]) if len(indices) and 0 <= indices[0] < len(colors) else 0
+        distinct = len(np.unique(colors, axis=0)) > 1
+        interpolation = primvar.GetInterpolation()
+        if distinct and interpolation != UsdGeom.Tokens.constant:
+            self.notes.warn(attr.GetPrim(), attr.GetName(), f"{interpolation} colours are not supported (one colour "
+                            "per surface); its first colour is used", "NotHonoured")
+        return Material(diffuse=tuple(float(c) for c in colors[first]))
