@@ -29,7 +29,9 @@ FRAMES = [VIEW.t_c, VIEW.t_c + 12.0]
 
 
 def _renderer(**kw):
-    return Renderer(sphere_view_scene(VIEW), frames=FRAMES, width=VIEW.width, height=VIEW.height, **kw)
+    """The options measure the 4D extrusion's rules: the prism database."""
+    return Renderer(sphere_view_scene(VIEW), frames=FRAMES, width=VIEW.width, height=VIEW.height,
+                    **{"primitive": "prism", **kw})
 
 
 def _expected_tetrahedra(r, fraction):
@@ -62,6 +64,12 @@ def test_sweep_fraction_sets_the_time_segments():
         np.testing.assert_allclose(img.depth[hit], ref.depth[hit], rtol=1e-5)  # float32 rounding of two extrusions
     assert _expected_tetrahedra(default, 0.25) > _expected_tetrahedra(default, 2.0)
     assert estimates[0.25] > estimates[2.0]  # the memory guard counts the database it will build
+
+
+def test_sweep_fraction_is_refused_on_the_rigid_path():
+    """The rigid path has no time segments: the option would be ignored, so it is refused."""
+    with pytest.raises(ValueError, match="sweep_fraction"):
+        _renderer(sweep_fraction=1.0, primitive="rigid")
 
 
 @pytest.mark.parametrize("bad", [0.0, -1.0, math.nan, math.inf])

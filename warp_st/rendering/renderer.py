@@ -204,6 +204,9 @@ class Renderer:
             primitive = "rigid" if self.precision == Precision.FLOAT32 else "prism"
         if primitive == "rigid" and self.precision != Precision.FLOAT32:
             raise SceneError.at(src, None, "primitive", "rigid traces in float32 only; use prism or tet for float64")
+        if primitive == "rigid" and sweep_fraction is not None:
+            raise ValueError("sweep_fraction sets the extrusion's time segments; the rigid path has none "
+                             "(use primitive='prism' or 'tet')")
         self.primitive = primitive
         width = _positive_int(width, "width", src)
         height = _positive_int(height, "height", src)
