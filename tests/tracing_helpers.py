@@ -77,7 +77,7 @@ class RigidDatabase(Database):
         from warp_st.rendering.device_rigid import RigidArrays, make_rigid_geometry
         from warp_st.spacetime.rigid import motion_segments, rigid_shapes
 
-        _warp()
+        init_warp()
         self.k = get_kernels("float32", "rigid")
         self.np_scalar = np.float32
         self.shapes = rigid_shapes(scene)

@@ -126,7 +126,7 @@ class MeshQueries:
     def __init__(self, scene, dirs):
         import warp as wp
 
-        from warp_st.rendering.renderer import _TILE_PIXELS
+        from warp_st.rendering.renderer import TILE_PIXELS
 
         self.wp = wp
         surfaces = [s for b in scene.bodies for s in b.surfaces]
@@ -138,7 +138,7 @@ class MeshQueries:
         self.origins = wp.zeros(n, dtype=wp.vec3, device="cpu")
         self.face = wp.zeros(n, dtype=wp.int32, device="cpu")
         self.t = wp.zeros(n, dtype=wp.float32, device="cpu")
-        self.tiles = [(o, min(o + _TILE_PIXELS, n)) for o in range(0, n, _TILE_PIXELS)]
+        self.tiles = [(o, min(o + TILE_PIXELS, n)) for o in range(0, n, TILE_PIXELS)]
         self.kernel = _mesh_kernel(wp)
         self.pool = ThreadPoolExecutor(max_workers=2)
         self.build()
@@ -327,9 +327,9 @@ def main(argv=None) -> int:
     unknown = sorted(set(tables) - set(TABLES))
     if unknown or args.runs < 1:
         p.error(f"unknown table {', '.join(unknown)}" if unknown else "--runs must be >= 1")
-    from warp_st.rendering.renderer import _warp
+    from warp_st.rendering.renderer import init_warp
 
-    _warp()
+    init_warp()
 
     def log(msg):
         print(msg, file=sys.stderr, flush=True)

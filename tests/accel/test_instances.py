@@ -20,8 +20,10 @@ or anchor moves hits by 1e-2 or more.
 """
 import numpy as np
 import pytest
-from test_tracing import _mixed_scene, _random_rays, _windows
 from tracing_helpers import Database, RigidDatabase, cube_body, scene_of
+from tracing_helpers import mixed_scene as _mixed_scene
+from tracing_helpers import random_rays as _random_rays
+from tracing_helpers import tube_windows as _windows
 
 COND_TOL = 1.0e-5
 
