@@ -419,7 +419,7 @@ def NurbsPatch "Sheet"
 def shapes() -> Stage:
     """Every analytic gprim on every axis, with two radii where the schema has them."""
     body, x = [], -9.0
-    for kind, extra in (("Cylinder", ""), ("Cone", ""), ("Capsule", ""), ("Plane", ""),
+    for kind, extra in (("Cylinder", ""), ("Cone", ""), ("Capsule", ""), ("Plane", "double length = 1"),
                         ("Cylinder_1", "double radiusTop = 0.25"), ("Capsule_1", "double radiusBottom = 0.25")):
         for axis in "XYZ":
             body.append(f'''

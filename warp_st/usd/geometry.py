@@ -13,8 +13,6 @@ patches, volumes) are skipped with a warning; so is every authored thing not hon
 """
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 from pxr import Gf, Tf, Usd, UsdGeom
 

@@ -11,7 +11,7 @@ too, and the default is used.
 """
 from __future__ import annotations
 
-import functools
+import threading
 
 import numpy as np
 from pxr import Sdr, UsdGeom, UsdShade
@@ -21,19 +21,29 @@ from warp_st.usd import attributes as A
 from warp_st.usd.attributes import Where
 from warp_st.usd.diagnostics import Notes, same_value
 
-__all__ = ["MaterialReader"]
+__all__ = ["MaterialReader", "preview_defaults"]
 
 #: UsdPreviewSurface inputs the renderer uses.
 HONOURED_INPUTS = ("diffuseColor", "emissiveColor", "metallic")
 
 
-@functools.cache
-def _preview_defaults() -> dict:
-    """UsdPreviewSurface's input defaults, from USD's shader registry."""
-    node = Sdr.Registry().GetShaderNodeByIdentifier("UsdPreviewSurface")
-    if not node:  # pragma: no cover - usd-core ships the definition
-        return {}
-    return {name: node.GetShaderInput(name).GetDefaultValue() for name in node.GetShaderInputNames()}
+_defaults: dict | None = None
+_defaults_lock = threading.Lock()
+
+
+def preview_defaults() -> dict:
+    """UsdPreviewSurface's input defaults, from USD's shader registry (read once).
+
+    Serialised: two of USD's validation worker threads entering the registry's first
+    discovery together deadlocked (its lock against the GIL); ``validate_stage`` also
+    reads it in the main thread before the validators run."""
+    global _defaults
+    with _defaults_lock:
+        if _defaults is None:
+            node = Sdr.Registry().GetShaderNodeByIdentifier("UsdPreviewSurface")
+            _defaults = {} if not node else {name: node.GetShaderInput(name).GetDefaultValue()
+                                             for name in node.GetShaderInputNames()}
+    return _defaults
 
 
 class MaterialReader:
@@ -122,7 +132,7 @@ class MaterialReader:
 
     def _other_inputs(self, shader) -> None:
         """Warnings for authored UsdPreviewSurface inputs the renderer does not use."""
-        defaults = _preview_defaults()
+        defaults = preview_defaults()
         for inp in shader.GetInputs():
             name = inp.GetBaseName()
             if name in HONOURED_INPUTS:

@@ -80,7 +80,6 @@ class _StageReader:
         self.stage = stage
         self.where = Where(where.file, static_time(stage))
         self.notes = Notes(where.file)
-        self.notes.count_samples = samples_listable(stage)
         self.xf = UsdGeom.XformCache(self.where.time)
         self.gprims = GprimReader(self.where, self.xf, self.notes)
         self.bodies: list[_BodyBuilder] = []
@@ -90,6 +89,9 @@ class _StageReader:
         self._current = None
 
     def read(self, *, reopen: str | None = None, no_references: bool = False) -> Scene:
+        # (not in __init__: validators build readers inside USD's worker threads, where
+        # GetUsedLayers can wait on a lock a thread waiting for the GIL holds)
+        self.notes.count_samples = samples_listable(self.stage)
         composition(self.notes, self.stage)
         self._traverse()
         settings_prim = self._settings_prim()
@@ -98,27 +100,13 @@ class _StageReader:
                                                                    self._resolution)
         if settings_prim is not None:
             check_prim(self.notes, settings_prim, self.where.time)
-        if self.gprims.subdivided:
-            first, more = self.gprims.subdivided[0], len(self.gprims.subdivided) - 1
-            others = f" (and {more} more mesh{'es' if more > 1 else ''})" if more else ""
-            self.notes.warn(first, "subdivisionScheme", f"subdivision surfaces are not refined{others}: they render "
-                                                         "their control cage (the authored polygons)", "Subdivision")
-        for body in self.bodies:
-            if not body.surfaces and body.api:
-                self.notes.warn(body.prim_path, None, "has SpacetimeBodyAPI but no visible supported geometry of its "
-                                                      "own: nothing of this body is rendered", "EmptyBody")
         bodies = tuple(b.build() for b in self.bodies if b.surfaces)
         cameras = tuple(self.cameras)
         framing = None
         if bodies:
             framing = frame_bounds(*_bounds(bodies, self.stage), str(UsdGeom.GetStageUpAxis(self.stage)),
                                    _aspect(settings.resolution))
-        if not cameras and framing is None:
-            self.notes.warn(None, None, "the stage has no camera and no supported visible geometry: there is nothing "
-                                        "to render (as a layer to reference it is fine)", "NothingToRender")
-        elif not cameras:
-            self.notes.info(None, None, f"the stage has no camera (UsdGeom.Camera): it renders through the default "
-                                        f"camera, {framing.describe()}, framing the stage's bounds", "DefaultCamera")
+        self._closing_notes(cameras, framing)
         default_camera = settings.camera or (cameras[0] if cameras else DEFAULT_CAMERA)
         frame_range = None
         if self.stage.HasAuthoredTimeCodeRange():
@@ -139,6 +127,25 @@ class _StageReader:
             meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(self.stage)),
             time_codes_per_second=float(self.stage.GetTimeCodesPerSecond()),
         )
+
+    def _closing_notes(self, cameras, framing) -> None:
+        """What only the whole stage tells: subdivision (one line), bodies with nothing to
+        draw, the default camera (information) or nothing to render at all."""
+        if self.gprims.subdivided:
+            first, more = self.gprims.subdivided[0], len(self.gprims.subdivided) - 1
+            others = f" (and {more} more mesh{'es' if more > 1 else ''})" if more else ""
+            self.notes.warn(first, "subdivisionScheme", f"subdivision surfaces are not refined{others}: they render "
+                                                         "their control cage (the authored polygons)", "Subdivision")
+        for body in self.bodies:
+            if not body.surfaces and body.api:
+                self.notes.warn(body.prim_path, None, "has SpacetimeBodyAPI but no visible supported geometry of its "
+                                                      "own: nothing of this body is rendered", "EmptyBody")
+        if not cameras and framing is None:
+            self.notes.warn(None, None, "the stage has no camera and no supported visible geometry: there is nothing "
+                                        "to render (as a layer to reference it is fine)", "NothingToRender")
+        elif not cameras:
+            self.notes.info(None, None, f"the stage has no camera (UsdGeom.Camera): it renders through the default "
+                                        f"camera, {framing.describe()}, framing the stage's bounds", "DefaultCamera")
 
     def _traverse(self) -> None:
         """Depth-first, pre-order: a subtree is contiguous, so hidden subtrees and

@@ -39,6 +39,7 @@ from warp_st.core.scene import SceneError
 from warp_st.usd.attributes import MASKED, SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
 from warp_st.usd.camera import CameraEvaluator
 from warp_st.usd.geometry import SUPPORTED_GPRIMS, GprimReader, is_hidden, world_transform
+from warp_st.usd.materials import preview_defaults
 from warp_st.usd.stage import tf_message
 
 __all__ = ["Problem", "KEYWORD", "BUILTIN", "register", "validate_stage", "counts"]
@@ -414,6 +415,7 @@ def validate_stage(stage: Usd.Stage, file: str, *, no_references: bool = False):
     register()
     registry = UsdValidation.ValidationRegistry()
     validators = [registry.GetOrLoadValidatorByName(n) for n in (*_VALIDATORS, *BUILTIN)]
+    preview_defaults()  # USD's shader registry read here, not first inside its worker threads
     with _lock:
         _active.update(stage=stage, file=file, failures=[])
         try:
