@@ -335,3 +335,13 @@ def test_time_samples_under_zero_time_codes_per_second(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == ("/X: xformOp:translate: has time samples; USD animation is not rendered yet: "
                                    "every frame uses its value at time code 0")
+
+
+def test_default_camera_survives_pickling(tmp_path):
+    """Farm workers get the scene pickled: the default camera evaluates the same there."""
+    import pickle
+
+    scene = load_quietly(CORPUS["vehicle_z_up"]().write(tmp_path))
+    here, there = scene.camera_state(None, 3.0), pickle.loads(pickle.dumps(scene.camera_state))(None, 3.0)
+    for name in ("position", "rotation", "focal_length", "horizontal_aperture", "time"):
+        np.testing.assert_array_equal(getattr(there, name), getattr(here, name))
