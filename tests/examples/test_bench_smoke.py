@@ -46,6 +46,27 @@ SUMMARY_ROWS = [
 ]
 
 
+def test_performance_quick_subset_prints_its_rows(tmp_path, capsys):
+    """The default suite's share of the quick run: two suites, no plots (the full quick run
+    below takes about a minute, so it is marked slow: ``-m slow`` runs it)."""
+    bench = _load("bench_performance")
+    out, raw = tmp_path / "performance.md", tmp_path / "perf.json"
+    assert bench.main(["--quick", "--suites", "sequence,precision", "--no-plots", "--out", str(out),
+                       "--json", str(raw)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith(f"CPU: {_cpu_model()} (")
+    assert [line.split(" | ")[0].lstrip("| ") for line in lines[3:]] == [
+        "sequence reuse", "precision float32", "precision float64"]
+    assert f"Machine: {_cpu_model()}," in out.read_text()
+    results = json.loads(raw.read_text())["results"]
+    assert list(results) == ["sequence", "precision"]
+    seq = results["sequence"]
+    assert _finite_positive(seq["reuse_per_frame_s"]) and _finite_positive(seq["rebuild_per_frame_s"])
+    for row in results["precision"]["rows"]:  # float32 Z within 1e-5 relative of the exact mesh hit at Z ~ 5
+        assert row["z_poly"] < (5e-5 if row["precision"] == "float32" else 5e-6), row
+
+
+@pytest.mark.slow
 def test_performance_quick_prints_the_table_and_writes_the_report(tmp_path, capsys):
     bench = _load("bench_performance")
     out = tmp_path / "docs" / "performance.md"
