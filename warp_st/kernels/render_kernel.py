@@ -282,7 +282,6 @@ def _make_render(scalar, k, trace, Geometry):
         alpha = scalar(0.0)
         prim = int(-1)
         s = scalar(0.0)
-        lam = vec4(scalar(0.0))
         src_t = scalar(0.0)
         src_b = int(0)
         visits = int(0)
@@ -294,7 +293,7 @@ def _make_render(scalar, k, trace, Geometry):
             ray_n = n
             if k > 0:
                 ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
-            c, a, p_k, s_k, lam_k, st_k, sb_k, ray_visits, ray_ovf = trace_path(geo, shd, cam, ray_o, ray_n)
+            c, a, p_k, s_k, _lam, st_k, sb_k, ray_visits, ray_ovf = trace_path(geo, shd, cam, ray_o, ray_n)
             visits += ray_visits
             overflow = wp.max(overflow, ray_ovf)
             if k == 0:
@@ -302,7 +301,6 @@ def _make_render(scalar, k, trace, Geometry):
                 alpha = a
                 prim = p_k
                 s = s_k
-                lam = lam_k
                 src_t = st_k
                 src_b = sb_k
             else:
@@ -315,9 +313,9 @@ def _make_render(scalar, k, trace, Geometry):
         film.visits[pixel] = visits
         if overflow != 0:
             film.overflow[0] = 1
+        bg = shd.background
+        film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
         if prim < 0:
-            bg = shd.background
-            film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
             film.depth[pixel] = scalar(wp.inf)
             film.event_time[pixel] = scalar(wp.nan)
             film.proper_time[pixel] = scalar(wp.nan)
@@ -326,8 +324,6 @@ def _make_render(scalar, k, trace, Geometry):
             film.source_time[pixel] = scalar(wp.nan)
             film.bounces[pixel] = 0
             return
-        bg = shd.background
-        film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
         dt = scalar(0.0)
         if cam.finite != 0:
             dt = -s
