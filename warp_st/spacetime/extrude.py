@@ -117,7 +117,7 @@ SWEEP_FRACTION = 0.5
 #: body's sweep in its segment, so with triangles much smaller than the body every ray
 #: point lies in many boxes. A segment then sweeps at most TRIANGLE_SWEEP x the body's
 #: median triangle size, but never less than MIN_SWEEP_FRACTION of the body (memory).
-#: Measured (docs/performance.md, "Time-segment length"): a 3 x 3 grid of 128-segment
+#: Measured (docs/design/performance-0.3.2.md, "Time-segment length"): a 3 x 3 grid of 128-segment
 #: spheres up to 0.9c traced 2x faster at a quarter of the half-size sweep, for 3x the
 #: tetrahedra; 24-segment spheres gained 20% at half of it.
 TRIANGLE_SWEEP = 4.0
