@@ -11,11 +11,14 @@ drift between repetitions cancels; the CPU model heads the table.
   primary rays over one ``wp.Mesh`` of all triangles (ratio = wp.Mesh time / ours,
   >= 1 means ours is faster);
 - trace:   closest hits only (the ``cast_rays`` probe through the two levels, no
-  shading or film) against ``wp.Mesh`` on the same rays (ratio = wp.Mesh time / ours);
+  shading or film) against ``wp.Mesh`` and Embree (``embreex``, ``pip install -e '.[bench]'``;
+  skipped with a line when absent) on the same rays (ratio = their time / ours);
 - motion:  the same render with the spheres moving at 0.3-0.9c against at rest
   (ratio = moving time / resting time);
 - first:   the first render of a new 1.03M-triangle static scene (kernels cached)
-  against ``wp.Mesh`` build + query (ratio = ours / theirs, <= 2 is the goal);
+  against ``wp.Mesh`` and Embree build + query (ratio = ours / theirs, <= 2 is the goal),
+  and the builds alone per million triangles: our database (bottom levels, top level,
+  shading tables) against ``wp.Mesh`` and Embree over the same triangles;
 - cubes:   warm render of 1,000 cubes moving at up to 0.95c (a third decoupled), lit by
   one distant light (shadow rays), against the same cubes at rest;
 - sequence: frames 0 and 10,000 of the moving spheres from one renderer (first
@@ -172,6 +175,48 @@ class MeshQueries:
         return time.perf_counter() - t0
 
 
+class EmbreeQueries:
+    """Embree (``embreex``: rtcIntersect1 per ray, its default BVH, float32) over the same
+    triangles and rays as ``MeshQueries``, in the same tiles and thread pool (embreex
+    releases the GIL). ``EmbreeQueries.create`` is None when embreex is not installed."""
+
+    @classmethod
+    def create(cls, mesh: MeshQueries, log):
+        try:
+            from embreex import rtcore_scene  # noqa: F401
+        except ImportError:
+            log("  embreex not installed (pip install -e '.[bench]'): Embree column skipped")
+            return None
+        return cls(mesh)
+
+    def __init__(self, mesh: MeshQueries):
+        self.mesh = mesh
+        self.tri_points = np.ascontiguousarray(mesh.points[mesh.indices.reshape(-1, 3)], dtype=np.float32)
+        self.dirs = np.ascontiguousarray(mesh.dirs.numpy(), dtype=np.float32)
+        self.origins = np.zeros_like(self.dirs)
+        self.face = np.full(len(self.dirs), -1, np.int64)
+        self.build()
+        self.query(2)
+
+    def build(self) -> float:
+        from embreex import rtcore_scene
+        from embreex.mesh_construction import TriangleMesh
+
+        t0 = time.perf_counter()
+        self.scene = rtcore_scene.EmbreeScene()
+        TriangleMesh(self.scene, self.tri_points)
+        self.scene.run(self.origins[:1], self.dirs[:1], output=1)  # Embree commits (builds) on first use
+        return time.perf_counter() - t0
+
+    def query(self, threads: int) -> float:
+        def launch(tile):
+            a, b = tile
+            r = self.scene.run(self.origins[a:b], self.dirs[a:b], output=1)
+            self.face[a:b] = np.where(r["geomID"] >= 0, r["primID"], -1)
+
+        return self.mesh.run(launch, threads)
+
+
 def _mesh_kernel(wp):
     @wp.kernel(enable_backward=False, module="unique")
     def mesh_rays(mesh: wp.uint64, origins: wp.array(dtype=wp.vec3), dirs: wp.array(dtype=wp.vec3),
@@ -253,16 +298,25 @@ def table_trace(args, log):
         return mesh.run(launch, threads)
 
     ours(2)
+    embree = EmbreeQueries.create(mesh, log)
     rows = []
     for threads in (1, 2):
-        a, b = [], []
+        a, b, e = [], [], []
         for _ in range(args.runs):
             a.append(ours(threads))
             b.append(mesh.query(threads))
-        agree = np.array_equal(outs[1].numpy() >= 0, mesh.face.numpy() >= 0)
-        rows.append((f"closest hit only, 16 static spheres (two levels against one wp.Mesh), {threads} thr", med(a),
-                     med(b), med(b) / med(a), "wp.Mesh / ours" + ("" if agree else " (hits DISAGREE)")))
-        log(f"  trace {threads} thr: ours {1e3 * med(a):.1f} ms, wp.Mesh {1e3 * med(b):.1f} ms")
+            if embree is not None:
+                e.append(embree.query(threads))
+        hit = outs[1].numpy() >= 0
+        for who, times, faces in (("wp.Mesh", b, mesh.face.numpy()), ("Embree", e, None if embree is None else
+                                                                      embree.face)):
+            if not times:
+                continue
+            agree = np.array_equal(hit, faces >= 0)
+            rows.append((f"closest hit only, 16 static spheres (two levels against one {who}), {threads} thr",
+                         med(a), med(times), med(times) / med(a), f"{who} / ours" + ("" if agree else
+                                                                                   " (hits DISAGREE)")))
+            log(f"  trace {threads} thr: ours {1e3 * med(a):.1f} ms, {who} {1e3 * med(times):.1f} ms")
     return rows
 
 
@@ -272,20 +326,45 @@ def table_motion(args, log):
 
 
 def table_first(args, log):
+    from warp_st.rendering.renderer import Renderer
+
     scene = spheres_scene(256, moving=False)
     tris = sum(b.triangle_count for b in scene.bodies)
     mesh = MeshQueries(scene, pixel_directions(scene, args.width, args.height))
+    embree = EmbreeQueries.create(mesh, log)
     timed_render(dataclasses.replace(scene), args, 2)  # kernels compiled / loaded
     rows = []
     for threads in (1, 2):
-        ours, theirs = [], []
+        ours, theirs, emb = [], [], []
         for _ in range(args.runs):
             fresh = dataclasses.replace(scene)  # a new Scene object: nothing cached for it
             ours.append(timed_render(fresh, args, threads)[0])
             theirs.append(mesh.build() + mesh.query(threads))
-        rows.append((f"first render, {tris:,} static triangles, {threads} thr", med(ours), med(theirs),
-                     med(ours) / med(theirs), "ours / (wp.Mesh build + query)"))
-        log(f"  first {threads} thr: ours {1e3 * med(ours):.1f} ms, wp.Mesh build+query {1e3 * med(theirs):.1f} ms")
+            if embree is not None:
+                emb.append(embree.build() + embree.query(threads))
+        for who, times in (("wp.Mesh", theirs), ("Embree", emb)):
+            if times:
+                rows.append((f"first render, {tris:,} static triangles, {threads} thr", med(ours), med(times),
+                             med(ours) / med(times), f"ours / ({who} build + query)"))
+                log(f"  first {threads} thr: ours {1e3 * med(ours):.1f} ms, {who} build+query "
+                    f"{1e3 * med(times):.1f} ms")
+    # The builds alone, per million triangles: our database for the frame (the renderer's
+    # construction: shapes and shading tables, bottom levels, segments, top level) against the
+    # 3D tracers' builds over the same triangles.
+    builds = {"ours": [], "wp.Mesh": [], "Embree": []}
+    for _ in range(args.runs):
+        t0 = time.perf_counter()
+        Renderer(dataclasses.replace(scene), frames=[0.0], width=args.width, height=args.height)
+        builds["ours"].append(time.perf_counter() - t0)
+        builds["wp.Mesh"].append(mesh.build())
+        if embree is not None:
+            builds["Embree"].append(embree.build())
+    per_m = 1e6 / tris
+    for who in ("wp.Mesh", "Embree"):
+        if builds[who]:
+            rows.append((f"build per million triangles ({tris:,} static triangles)", per_m * med(builds["ours"]),
+                         per_m * med(builds[who]), med(builds["ours"]) / med(builds[who]), f"ours / {who}"))
+    log("  builds per M triangles: " + ", ".join(f"{k} {1e3 * per_m * med(v):.0f} ms" for k, v in builds.items() if v))
     return rows
 
 
