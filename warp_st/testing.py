@@ -125,6 +125,8 @@ class SphereView:
 
     segments: fixed UV longitudes, or None for the renderer's adaptive choice (the
         surface then carries its analytic ``sphere``, as the USD reader sets it).
+    quadrics: the renderer's ``quadrics`` option ("exact" or "tessellated"; None: its
+        default, exact on the rigid path) for an analytic sphere.
     """
 
     name: str = "sphere"
@@ -140,6 +142,7 @@ class SphereView:
     height: int = 120
     segments: int | None = 64
     precision: str = "float32"
+    quadrics: str | None = None
 
     @property
     def centre(self) -> np.ndarray:
@@ -162,7 +165,8 @@ class SphereView:
 
     def render_options(self) -> dict:
         """The ``Renderer`` keywords of this view: its frame, size and precision."""
-        return dict(frames=[self.t_c], width=self.width, height=self.height, precision=self.precision)
+        kw = dict(frames=[self.t_c], width=self.width, height=self.height, precision=self.precision)
+        return kw if self.quadrics is None else {**kw, "quadrics": self.quadrics}
 
 
 def sphere_view_scene(view: SphereView) -> Scene:

@@ -77,11 +77,19 @@ def test_a_replaced_scene_rebuilds_and_sees_its_change(parade):
 
 
 def test_options_that_change_the_database_rebuild_it(parade):
-    # Resolution: the parade's UsdGeom.Spheres are tessellated for the pixel size.
-    small = Renderer(parade, frames=[0], width=64, height=36)
-    large = Renderer(parade, frames=[0], width=640, height=360)
+    # Resolution: tessellated UsdGeom.Spheres are cut for the pixel size; exact ones
+    # (the rigid path's default) keep one database whatever the resolution.
+    small = Renderer(parade, frames=[0], width=64, height=36, quadrics="tessellated")
+    large = Renderer(parade, frames=[0], width=640, height=360, quadrics="tessellated")
     assert small.sphere_segments != large.sphere_segments
     assert large.stats.database_built or large.database is not small.database
+    exact_small = Renderer(parade, frames=[0], width=64, height=36)
+    n = database_cache.builds()
+    exact_large = Renderer(parade, frames=[0], width=640, height=360)
+    assert exact_small.sphere_segments == exact_large.sphere_segments == {}
+    assert database_cache.builds() == n and exact_large.database is exact_small.database
+    # Exact and tessellated spheres are cached apart.
+    assert exact_small.database is not small.database
     # Light speed: infinite c sees other lab times, so other windows.
     finite = warp_st.render(parade, frame=0, width=64, height=36)
     n = database_cache.builds()

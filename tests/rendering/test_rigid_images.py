@@ -6,6 +6,8 @@ prisms (the previous default, 0.3.3's path): the same object per pixel, the same
 bounce counts, and colour, depth, event, proper and source times and Doppler factors
 equal to float32 rounding, with shading, shadow rays, mirrors (up to 4 bounces),
 coupled and decoupled bodies and infinite light speed as each stage authors them.
+Both trace the same triangles: UsdGeom.Spheres tessellated (``quadrics="tessellated"``;
+the rigid path's exact spheres are tests/rendering/test_exact_quadrics.py's).
 
 Tolerances: both paths compute each hit in float32 from differently rounded data
 (the extrusion's vertices at slice times, the rigid shapes at rest), a few ulps apart:
@@ -45,7 +47,7 @@ def test_rigid_renders_equal_the_extrusion(stage):
     # extrusion's is (flange.usda at 96 x 54: 16 of 1476 hit pixels; none at 95, 97, 192 or
     # 320 wide; docs/design/two-level.md). The sets are compared at 97 x 55, off that grid.
     width, height = (97, 55) if stage in SETS else (96, 54)
-    rigid = warp_st.render(scene, frame=0, width=width, height=height)
+    rigid = warp_st.render(scene, frame=0, width=width, height=height, quadrics="tessellated")
     prism = warp_st.render(scene, frame=0, width=width, height=height, primitive="prism")
     assert rigid.precision == "float32"
     hit = prism.object_id > 0

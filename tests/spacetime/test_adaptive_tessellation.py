@@ -21,6 +21,10 @@ Laws checked, each against the closed-form sphere (``warp_st.core.lorentz.sphere
   (no bound on the retarded stretch) keep it; other surfaces are never touched;
 - re-tessellating at the reader's default reproduces the reader's surface bit for bit.
 
+The rule serves spheres traced as triangles: the prism and tet paths, and the rigid path
+with ``quadrics="tessellated"`` (the rigid path's default traces a lone sphere exactly,
+tests/rendering/test_exact_quadrics.py), which every render here asks for.
+
 Error measures (``warp_st.testing.sphere_errors``): silhouette = the largest image-plane
 distance from a pixel whose hit/miss differs from the exact sphere's to the exact outline
 (located by bisection on the oracle); depth = how far each rendered hit event lies off
@@ -44,10 +48,12 @@ from warp_st.spacetime.adaptive import adapt_sphere_tessellation, retessellate_s
 from warp_st.testing import SphereView, render_view, sphere_errors, sphere_view_scene
 
 HALF_PIXEL = 0.5
+TESSELLATED = dict(quadrics="tessellated")
 
 
 def _chosen(view: SphereView, **kw) -> int:
-    r = Renderer(sphere_view_scene(view), frames=[view.t_c], width=view.width, height=view.height, **kw)
+    r = Renderer(sphere_view_scene(view), frames=[view.t_c], width=view.width, height=view.height, **TESSELLATED,
+                 **kw)
     return r.sphere_segments["/Sphere"]
 
 
@@ -57,7 +63,8 @@ def _chosen(view: SphereView, **kw) -> int:
                          ids=["rest", "coupled_0.9c", "decoupled_0.9c"])
 def test_chosen_level_stays_within_half_a_pixel(size, velocity, decoupled):
     w, h = size
-    view = SphereView(width=w, height=h, segments=None, velocity=velocity, decoupled=decoupled)
+    view = SphereView(width=w, height=h, segments=None, velocity=velocity, decoupled=decoupled,
+                      quadrics="tessellated")
     r, img = render_view(view)
     n = r.sphere_segments["/Sphere"]
     err = sphere_errors(img, view, segments=n)
@@ -93,7 +100,7 @@ def test_sequence_gets_the_level_of_its_nearest_frame():
     the nearer frame's level."""
     view = SphereView(width=200, height=150, segments=None, velocity=(0.0, 0.0, 0.5), distance=40.0, hfov_deg=30.0)
     scene = sphere_view_scene(view)
-    kw = dict(width=view.width, height=view.height)
+    kw = dict(width=view.width, height=view.height, **TESSELLATED)
     early = Renderer(scene, frames=[view.t_c], **kw).sphere_segments["/Sphere"]
     late = Renderer(scene, frames=[view.t_c + 20.0], **kw).sphere_segments["/Sphere"]
     both = Renderer(scene, frames=[view.t_c, view.t_c + 20.0], **kw).sphere_segments["/Sphere"]
@@ -106,14 +113,14 @@ def test_mirror_spheres_never_go_below_the_default():
     body = scene.bodies[0]
     mirror = dataclasses.replace(body, surfaces=(dataclasses.replace(body.surfaces[0], material=Material(metallic=1.0)),))
     scene = dataclasses.replace(scene, bodies=(mirror,))
-    kw = dict(frames=[view.t_c], width=view.width, height=view.height)
+    kw = dict(frames=[view.t_c], width=view.width, height=view.height, **TESSELLATED)
     assert Renderer(scene, max_depth=0, **kw).sphere_segments["/Sphere"] < tessellate.DEFAULT_SPHERE_SEGMENTS
     assert Renderer(scene, max_depth=4, **kw).sphere_segments["/Sphere"] == tessellate.DEFAULT_SPHERE_SEGMENTS
 
 
 def test_superluminal_decoupled_sphere_keeps_the_reader_tessellation():
     view = SphereView(width=48, height=36, segments=None, velocity=(1.5, 0.0, 0.0), decoupled=True)
-    r = Renderer(sphere_view_scene(view), frames=[view.t_c], width=48, height=36)
+    r = Renderer(sphere_view_scene(view), frames=[view.t_c], width=48, height=36, **TESSELLATED)
     assert "/Sphere" not in r.sphere_segments
     n = tessellate.DEFAULT_SPHERE_SEGMENTS
     assert r.stats.tetrahedra % (3 * n * (n - 2)) == 0  # whole prisms of the 64-segment mesh
@@ -165,8 +172,8 @@ def test_reader_records_the_sphere_and_retessellation_reproduces_it(tmp_path, sc
     assert np.array_equal(again.triangles, surf.triangles)
     assert np.array_equal(again.normals, surf.normals)
     # and the renderer adapts it: more segments for a bigger image
-    lo = Renderer(scene, width=64, height=48).sphere_segments["/X/Ball"]
-    hi = Renderer(scene, width=1024, height=768).sphere_segments["/X/Ball"]
+    lo = Renderer(scene, width=64, height=48, **TESSELLATED).sphere_segments["/X/Ball"]
+    hi = Renderer(scene, width=1024, height=768, **TESSELLATED).sphere_segments["/X/Ball"]
     assert lo < hi
     scale_max = abs(float(scale.split(",")[0]))
     r_world = radius * scale_max

@@ -53,6 +53,9 @@ def add_arguments(parser) -> None:
                         help="scale radiance by D^4, the searchlight effect (off by default)")
     parser.add_argument("--precision", choices=("float32", "float64"), help="scalar type of the kernels")
     parser.add_argument("--light-speed", choices=("finite", "infinite"), help="finite (c = 1) or infinite light speed")
+    parser.add_argument("--quadrics", choices=("exact", "tessellated"),
+                        help="UsdGeom.Spheres traced as exact ellipsoids (the float32 default) or as triangles "
+                        "within half a pixel (the only choice with --precision float64)")
     parser.add_argument("--resume", action="store_true",
                         help="skip frames whose output is already a complete EXR written by the same run (version, "
                         "stage file, options that change pixels, channels); any other is rendered again")
@@ -97,7 +100,7 @@ def plan_outputs(args, scene_path: Path, frames: list[float], frames_given: bool
 
 def _options_text(args) -> str:
     names = ("camera", "width", "height", "max_depth", "samples", "shutter", "doppler_color", "searchlight",
-             "precision", "light_speed", "no_references")
+             "precision", "light_speed", "quadrics", "no_references")
     return " ".join(f"{n}={getattr(args, n)}" for n in names if getattr(args, n) not in (None, False))
 
 
@@ -142,6 +145,7 @@ def run(args, argv: list[str]) -> int:
         searchlight=args.searchlight,
         precision=Precision(args.precision) if args.precision else None,
         light_speed=LightSpeed(args.light_speed) if args.light_speed else None,
+        quadrics=args.quadrics,
         max_memory=args.max_memory,  # None: the Renderer's default limit (75% of the physical memory)
     )
     metadata = {"stage": str(scene_path), "stageHash": stage_hash, "commandLine": shlex.join([PROG, *argv])}

@@ -64,12 +64,14 @@ def _make_render(scalar, k, trace, Geometry):
 
     @wp.struct
     class Camera:
-        lab_from_camera: mat33
-        focal: scalar
-        h_ap: scalar
-        v_ap: scalar
-        h_off: scalar
-        v_off: scalar
+        # The pinhole in float64 (``camera_direction``): a float32 lens would turn every
+        # ray by ~1e-7, which near a silhouette moves the hit's lookback by 1e-5.
+        lab_from_camera: wp.mat33d
+        focal: wp.float64
+        h_ap: wp.float64
+        v_ap: wp.float64
+        h_off: wp.float64
+        v_off: wp.float64
         width: int
         height: int
         velocity: vec3
@@ -126,15 +128,16 @@ def _make_render(scalar, k, trace, Geometry):
 
     @wp.func
     def camera_direction(cam: Camera, px: scalar, py: scalar) -> vec3:
-        """Pinhole look direction in the lab for film position (px, py) in pixels."""
-        x_ndc = (px / scalar(cam.width)) * scalar(2.0) - scalar(1.0)
-        y_ndc = scalar(1.0) - (py / scalar(cam.height)) * scalar(2.0)
-        d_cam = vec3(
-            (x_ndc * cam.h_ap * scalar(0.5) + cam.h_off) / cam.focal,
-            (y_ndc * cam.v_ap * scalar(0.5) + cam.v_off) / cam.focal,
-            scalar(-1.0),
-        )
-        n_rest = wp.normalize(cam.lab_from_camera * d_cam)
+        """Pinhole look direction in the lab for film position (px, py) in pixels: in
+        float64, rounded once to ``scalar`` before the aberration."""
+        one = wp.float64(1.0)
+        half = wp.float64(0.5)
+        x_ndc = (wp.float64(px) / wp.float64(cam.width)) * wp.float64(2.0) - one
+        y_ndc = one - (wp.float64(py) / wp.float64(cam.height)) * wp.float64(2.0)
+        d_cam = wp.vec3d((x_ndc * cam.h_ap * half + cam.h_off) / cam.focal,
+                         (y_ndc * cam.v_ap * half + cam.v_off) / cam.focal, -one)
+        d = wp.normalize(cam.lab_from_camera * d_cam)
+        n_rest = vec3(scalar(d[0]), scalar(d[1]), scalar(d[2]))
         if cam.moving != 0:
             return aberrate(n_rest, cam.velocity, cam.gamma, cam.decoupled)
         return n_rest
@@ -227,6 +230,8 @@ def _make_render(scalar, k, trace, Geometry):
             # An interpolated normal can send a grazing reflection into the facet's own
             # plane (it would re-enter a convex mirror): reflect about the facet then.
             facet = shd.tri_normal[tri]
+            if lam[3] > scalar(1.5):  # an analytic hit: its normal is the surface's
+                facet = normal
             if wp.dot(facet, n + v_mirror) > scalar(0.0):
                 facet = -facet
             if wp.dot(facet, n_out + v_mirror) <= scalar(0.0):

@@ -49,13 +49,16 @@ def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
     def shading_normal(geo: Geometry, shd: Shading, prim: int, lam: vec4, n: vec3) -> vec3:
         """Unit normal at the hit, on the side the light to the camera leaves from.
 
-        Smooth triangles interpolate vertex normals with the hit's barycentrics.
+        Smooth triangles interpolate vertex normals with the hit's barycentrics; an
+        analytic hit (4th barycentric ANALYTIC, ``trace_rigid``) carries its own.
         Relative to a surface moving with v the photon (spatial direction -n) moves as
         -(n + v), which picks the side of a two-sided surface.
         """
         tri = geo.prim_tri[prim]
         normal = shd.tri_normal[tri]
-        if shd.tri_smooth[tri] != 0:
+        if lam[3] > scalar(1.5):
+            normal = vec3(lam[0], lam[1], lam[2])
+        elif shd.tri_smooth[tri] != 0:
             idx = geo.prim_vidx[prim]
             sm = (
                 lam[0] * shd.vert_normal[idx[0]]

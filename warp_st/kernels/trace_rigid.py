@@ -27,13 +27,27 @@ the any-hit one.
 The hit's barycentrics (u, v, 1 - u - v) weigh the triangle's vertices in the mesh's
 index order; the primitive index returned is the global triangle (``prim_tri`` is the
 identity), so the shading reads the same tables as on the prism path.
+
+A body flagged ``body_quadric`` is its exact ellipsoid |Q (r - c)| = 1 in its frame's
+coordinates (spacetime/rigid.py): the ray r(s) = p + s d meets it where a quadratic in s
+vanishes, solved in float64 (``ellipsoid_roots``). Such a hit returns the body's first
+triangle (its material and body for the shading) and, in place of barycentrics, the
+unit lab normal with a 4th component of ANALYTIC (``shade.shading_normal``): the rest
+normal Q^T Q (r - c) taken to the lab by A^-T. A secondary ray leaving the surface
+has a root at its start, within the float32 rounding of the hit event (~1e-7 of the
+path): the self-intersection offset s_min (``shade.SELF_EPS``, 1e-4 of the path) drops
+it, and as the ellipsoid is convex and the ray a straight line in its frame, the other
+root lies behind the ray unless it leaves into the inside.
 """
 
 import warp as wp
 
 from warp_st.kernels.traverse import make_box_ops, make_traverse
 
-__all__ = ["make_trace_rigid"]
+__all__ = ["make_trace_rigid", "ANALYTIC"]
+
+#: The 4th "barycentric" of an analytic hit: its first three are the unit lab normal.
+ANALYTIC = 2.0
 
 
 def make_trace_rigid(scalar):
@@ -69,6 +83,9 @@ def make_trace_rigid(scalar):
         body_start_hi: wp.array(dtype=wp.vec3d)
         body_anchor: wp.array(dtype=wp.vec4d)  # the frame's event relative to the render origin
         body_end: wp.array(dtype=wp.float64)  # the lifetime's end relative to the render origin
+        body_quadric: wp.array(dtype=wp.int32)  # 1: the body is its exact ellipsoid (module docstring)
+        quadric_inv: wp.array(dtype=wp.mat33d)
+        quadric_centre: wp.array(dtype=wp.vec3d)
         # Motion segments in top-level leaf order: body, lab-time span (t_lo, t_hi) and
         # 4D box, relative to the render origin.
         seg_body: wp.array(dtype=wp.int32)
@@ -138,6 +155,48 @@ def make_trace_rigid(scalar):
         return s0, s1
 
     @wp.func
+    def ellipsoid_roots(q_inv: wp.mat33d, c: wp.vec3d, p: wp.vec3d, d: wp.vec3d):
+        """(found, s1 <= s2): where |q_inv (p + s d - c)| = 1 (float64; the stable form
+        of the quadratic's roots)."""
+        q0 = q_inv * (p - c)
+        qd = q_inv * d
+        a = wp.dot(qd, qd)
+        b = wp.dot(q0, qd)
+        cc = wp.dot(q0, q0) - wp.float64(1.0)
+        disc = b * b - a * cc
+        if a == wp.float64(0.0) or disc < wp.float64(0.0):
+            return 0, wp.float64(0.0), wp.float64(0.0)
+        root = wp.sqrt(disc)
+        k = -b - root
+        if b < wp.float64(0.0):
+            k = -b + root
+        if k == wp.float64(0.0):
+            return 1, wp.float64(0.0), wp.float64(0.0)
+        s1 = k / a
+        s2 = cc / k
+        return 1, wp.min(s1, s2), wp.max(s1, s2)
+
+    @wp.func
+    def ellipsoid_hit(g: Geometry, body: int, p: wp.vec3d, d: wp.vec3d, lo: wp.float64, hi: wp.float64):
+        """(s, lab normal) of the first crossing of ``body``'s ellipsoid in [lo, hi]; s < lo
+        when none."""
+        q_inv = g.quadric_inv[body]
+        c = g.quadric_centre[body]
+        found, s1, s2 = ellipsoid_roots(q_inv, c, p, d)
+        s = lo - wp.float64(1.0)
+        if found != 0:
+            if s1 >= lo and s1 <= hi:
+                s = s1
+            elif s2 >= lo and s2 <= hi:
+                s = s2
+        normal = vec3(scalar(0.0))
+        if s >= lo:
+            rest_normal = wp.transpose(q_inv) * (q_inv * (p + d * s - c))
+            lab = wp.normalize(wp.transpose(g.body_rest[body]) * rest_normal)
+            normal = vec3(scalar(lab[0]), scalar(lab[1]), scalar(lab[2]))
+        return s, normal
+
+    @wp.func
     def at(p: wp.vec3d, d: wp.vec3d, s: wp.float64) -> vec3:
         q = p + d * s
         return vec3(scalar(q[0]), scalar(q[1]), scalar(q[2]))
@@ -183,7 +242,15 @@ def make_trace_rigid(scalar):
                 direction = vec3(scalar(d[0]), scalar(d[1]), scalar(d[2]))
                 mesh = g.body_mesh[body]
                 base = g.body_tri_base[body]
-                if any_hit != 0 and body != skip_body:
+                if g.body_quadric[body] != 0:
+                    s, normal = ellipsoid_hit(g, body, p, d, wp.float64(s_lo), wp.float64(s_hi))
+                    if s >= wp.float64(s_lo):
+                        best = scalar(s)
+                        best_prim = base
+                        best_lam = vec4(normal[0], normal[1], normal[2], scalar(ANALYTIC))
+                        if any_hit != 0:
+                            return best, best_prim, best_lam
+                elif any_hit != 0 and body != skip_body:
                     e0 = wp.max(e0, wp.float64(s_lo))
                     if e0 < e1:
                         if wp.mesh_query_ray_anyhit(mesh, at(p, d, e0), direction, scalar(e1 - e0)):

@@ -10,6 +10,7 @@ conformed to the image aspect (vAp = hAp H / W), keeping the horizontal field of
 from __future__ import annotations
 
 import numpy as np
+import warp as wp
 
 from warp_st.core.conventions import LightSpeed
 from warp_st.core.lorentz import aberrate
@@ -46,7 +47,7 @@ def make_camera(
     """Kernel camera. samples > 1 jitters rays in the pixel (a strata x strata grid) and
     in camera time over [t_c, t_c + shutter] (4D anti-aliasing and motion blur)."""
     c = k.Camera()
-    c.lab_from_camera = k.mat33(*np.asarray(cam.rotation, dtype=np.float64).reshape(-1).tolist())
+    c.lab_from_camera = wp.mat33d(*np.asarray(cam.rotation, dtype=np.float64).reshape(-1).tolist())
     c.focal = float(cam.focal_length)
     c.h_ap = float(cam.horizontal_aperture)
     c.v_ap = float(cam.horizontal_aperture) * height / width

@@ -48,6 +48,9 @@ class RigidArrays(ShadingTables):
         self.body_start_hi = wp.array(shapes.body_start_hi, dtype=wp.vec3d, device=_DEVICE)
         self.body_velocity64 = wp.array(np.array([b.velocity for b in shapes.bodies], dtype=np.float64).reshape(-1, 3),
                                         dtype=wp.vec3d, device=_DEVICE)
+        self.body_quadric = wp.array(shapes.body_quadric.astype(np.int32), dtype=wp.int32, device=_DEVICE)
+        self.quadric_inv = wp.array(shapes.quadric_inv, dtype=wp.mat33d, device=_DEVICE)
+        self.quadric_centre = wp.array(shapes.quadric_centre, dtype=wp.vec3d, device=_DEVICE)
         self.order = top.order
         self.seg_body = wp.array(segments.body[top.order].astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.wide = collapse(top)
@@ -60,7 +63,8 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     ns = static.np_scalar
     order = static.order
     for name in ("prim_vidx", "prim_tri", "tri_body", "body_mesh", "body_tri_base", "body_rest", "body_rest_lo",
-                 "body_rest_hi", "body_start_lo", "body_start_hi", "seg_body"):
+                 "body_rest_hi", "body_start_lo", "body_start_hi", "seg_body", "body_quadric", "quadric_inv",
+                 "quadric_centre"):
         setattr(g, name, getattr(static, name))
     g.body_velocity = static.body_velocity64
     vec2 = wp.types.vector(2, k.scalar)

@@ -30,6 +30,7 @@ from warp_st.rendering import database_cache
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
+from warp_st.spacetime.rigid import quadric_body
 from warp_st.spacetime.visibility import union, visibility_windows
 
 __all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION", "PRIMITIVES",
@@ -133,6 +134,10 @@ class Renderer:
         (the default in float64: one comoving triangle test per extruded prism) or
         "tet" (three tetrahedra per prism, the general path); all give the same images
         to float32 rounding.
+    quadrics: "exact" (the default on the rigid path: a body whose one surface is a
+        UsdGeom.Sphere is traced as its exact ellipsoid, spacetime/rigid.py) or
+        "tessellated" (every sphere as triangles within half a pixel; the only choice on
+        the prism and tet paths).
 
     Two options exist to measure the database's rules (examples/benchmarks), not to
     render: the default None keeps the renderer's own rules.
@@ -164,6 +169,7 @@ class Renderer:
         threads: int | None = None,
         max_memory: int | str | None = None,
         primitive: str | None = None,
+        quadrics: str | None = None,
         sweep_fraction: float | None = None,
         adjust_windows=None,
     ):
@@ -208,6 +214,12 @@ class Renderer:
             raise ValueError("sweep_fraction sets the extrusion's time segments; the rigid path has none "
                              "(use primitive='prism' or 'tet')")
         self.primitive = primitive
+        if quadrics not in (None, "exact", "tessellated"):
+            raise SceneError.at(src, None, "quadrics", f"must be exact or tessellated, got {quadrics!r}")
+        if quadrics == "exact" and primitive != "rigid":
+            raise SceneError.at(src, None, "quadrics", "exact quadrics are traced on the rigid path only "
+                                                       "(float32); use quadrics='tessellated'")
+        self.exact_quadrics = quadrics != "tessellated" and primitive == "rigid"
         width = _positive_int(width, "width", src)
         height = _positive_int(height, "height", src)
         res = settings.resolution or DEFAULT_RESOLUTION
@@ -260,9 +272,12 @@ class Renderer:
         shutter = self.shutter if self.samples > 1 else 0.0
         ends = cams + [c.advanced(shutter) for c in cams if shutter > 0.0]
         # UsdGeom.Spheres: the cheapest tessellation within half a pixel in every frame.
+        # Spheres traced exactly keep the reader's tessellation (their shading tables only).
         self.sphere_segments = sphere_tessellation(
             self.scene, ends, width=self.width, height=self.height,
             modes=sorted(m == LightSpeed.INFINITE for m in modes), max_depth=self.max_depth)
+        exact = {s.prim_path for b in self.scene.bodies if quadric_body(b, self.exact_quadrics) for s in b.surfaces}
+        self.sphere_segments = {k: v for k, v in self.sphere_segments.items() if k not in exact}
         cache = database_cache.for_scene(self.scene)
         tessellation = tuple(sorted(self.sphere_segments.items()))
         scene = self.scene
@@ -283,6 +298,8 @@ class Renderer:
         check_limits(scene, windows, width=self.width, height=self.height, samples=self.samples,
                      max_depth=self.max_depth)
         pixels = self.width * self.height
+        if self.exact_quadrics:  # the shapes and databases of exact quadrics are cached apart
+            tessellation += (("quadrics", "exact"),)
         db = None if measuring else next(
             (d for d in cache.candidates(tessellation, self.primitive, windows)
              if self.max_memory is None or d.nbytes + pixels * BYTES_PER_PIXEL <= self.max_memory), None)
@@ -358,7 +375,7 @@ class Renderer:
         from warp_st.spacetime.rigid import motion_segments, rigid_shapes
 
         def shapes_and_bottom():
-            shapes = rigid_shapes(scene)
+            shapes = rigid_shapes(scene, exact_quadrics=self.exact_quadrics)
             return shapes, BottomLevels(shapes)
 
         nbytes = check_resources(scene, windows, width=self.width, height=self.height, samples=self.samples,
@@ -390,6 +407,7 @@ class Renderer:
             "width": self.width,
             "height": self.height,
             "precision": self.precision.value,
+            "quadrics": "exact" if self.exact_quadrics else "tessellated",
             "camera": self.camera_path,
             "max_depth": self.max_depth,
             "samples": self.samples,

@@ -28,7 +28,7 @@ from warp_st.core.scene import Scene
 from warp_st.spacetime.extrude import TriangleTables, _body_size, body_triangles
 from warp_st.spacetime.visibility import intervals
 
-__all__ = ["RigidShapes", "rigid_shapes", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
+__all__ = ["RigidShapes", "rigid_shapes", "ellipsoid", "quadric_body", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,6 +51,10 @@ class RigidShapes(TriangleTables):
         that frame (queries start where a ray enters it).
     rest_from_lab: A^-1 per body, (B, 3, 3) (identity for decoupled bodies).
     tri_vidx: global vertex indices of each triangle (T, 3).
+    body_quadric: 1 for a body traced as its exact ellipsoid (``rigid_shapes``'s
+        ``exact_quadrics``), else 0, (B,); quadric_inv / quadric_centre: the ellipsoid
+        {r : |quadric_inv (r - quadric_centre)| = 1} in the shape frame's coordinates,
+        (B, 3, 3) and (B, 3) (identity and zero for other bodies).
     """
 
     shape_rest: tuple
@@ -67,6 +71,9 @@ class RigidShapes(TriangleTables):
     body_start_hi: np.ndarray
     rest_from_lab: np.ndarray
     tri_vidx: np.ndarray
+    body_quadric: np.ndarray
+    quadric_inv: np.ndarray
+    quadric_centre: np.ndarray
 
     @property
     def triangle_count(self) -> int:
@@ -78,8 +85,28 @@ class RigidShapes(TriangleTables):
 REST_BOX_PAD = 1.0e-6
 
 
-def rigid_shapes(scene: Scene) -> RigidShapes:
+def ellipsoid(surface):
+    """(M, t) of a UsdGeom.Sphere surface (``Surface.sphere``): its points are M u + t for
+    the unit vectors u (column vectors; the reader's matrix acts on row vectors)."""
+    radius, m = surface.sphere
+    m = np.asarray(m, dtype=np.float64).reshape(4, 4)
+    return radius * m[:3, :3].T, m[3, :3].copy()
+
+
+def quadric_body(body, exact: bool) -> bool:
+    """True when ``body`` is traced as its exact ellipsoid: quadrics asked for and the
+    body's one surface a UsdGeom.Sphere with an invertible transform."""
+    if not exact or len(body.surfaces) != 1 or body.surfaces[0].sphere is None:
+        return False
+    return abs(float(np.linalg.det(ellipsoid(body.surfaces[0])[0]))) > 1e-300
+
+
+def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
     """The shapes and shading tables of every body of ``scene`` (no frame enters).
+
+    With ``exact_quadrics`` a body whose one surface is a UsdGeom.Sphere is traced as
+    that ellipsoid (``body_quadric``): its boxes are the ellipsoid's, and its triangles
+    serve only its shading tables (material, body) and the tables' bookkeeping.
 
     Frames. A shape used by several bodies (instances: the same triangles at the same
     place relative to each body's pivot) is held once, in body coordinates about the
@@ -112,6 +139,9 @@ def rigid_shapes(scene: Scene) -> RigidShapes:
     frame_of = np.arange(n_bodies)  # the body whose frame a body's shape is held in
     groups: dict = {}
     rest_from_lab = np.tile(np.eye(3), (n_bodies, 1, 1))
+    quadric = np.zeros(n_bodies, np.int32)
+    quadric_inv = np.tile(np.eye(3), (n_bodies, 1, 1))
+    quadric_centre = np.zeros((n_bodies, 3))
     tables = {k: [] for k in ("normals", "vidx", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material")}
     n_tri = n_vert = 0
     for i, (body, bt, key) in enumerate(zip(scene.bodies, found, keys)):
@@ -135,6 +165,19 @@ def rigid_shapes(scene: Scene) -> RigidShapes:
         box_lo[i], box_hi[i] = bt.local.min(axis=0), bt.local.max(axis=0)
         pad = REST_BOX_PAD * (1.0 + float(np.abs(rest).max()))
         rest_lo[i], rest_hi[i] = rest.min(axis=0) - pad, rest.max(axis=0) + pad
+        if quadric_body(body, exact_quadrics):
+            # The ellipsoid M u + t, held in the shape's frame: its centre moves as the
+            # points did. Boxes: the extent of M u along axis k is |row k of M|.
+            m, t = ellipsoid(body.surfaces[0])
+            origin = np.asarray(body.origin, dtype=np.float64)
+            centre = t - origin + (rest[0] - bt.rest[0])
+            quadric[i], quadric_inv[i], quadric_centre[i] = 1, np.linalg.inv(m), centre
+            half = np.linalg.norm(m, axis=1)
+            pad = REST_BOX_PAD * (1.0 + float(np.abs(centre).max() + half.max()))
+            rest_lo[i], rest_hi[i] = centre - half - pad, centre + half + pad
+            a = np.linalg.inv(rest_from_lab[i])
+            lab_centre, lab_half = origin + a @ (t - origin), np.linalg.norm(a @ m, axis=1)
+            box_lo[i], box_hi[i] = lab_centre - lab_half, lab_centre + lab_half
         tables["normals"].append(bt.normals)
         tables["vidx"].append(bt.triangles + n_vert)
         tables["tri_normal"].append(bt.tri_normal)
@@ -159,7 +202,8 @@ def rigid_shapes(scene: Scene) -> RigidShapes:
         shape_rest=tuple(shape_rest), shape_triangles=tuple(shape_tris), body_shape=body_shape,
         body_tri_base=tri_base, body_vert_base=vert_base, body_box_lo=box_lo, body_box_hi=box_hi,
         body_frame=frame[frame_of], body_rest_lo=rest_lo, body_rest_hi=rest_hi, body_start_lo=start_lo,
-        body_start_hi=start_hi, rest_from_lab=rest_from_lab, vertex_normals=cat("normals", (0, 3), np.float64),
+        body_start_hi=start_hi, rest_from_lab=rest_from_lab, body_quadric=quadric, quadric_inv=quadric_inv,
+        quadric_centre=quadric_centre, vertex_normals=cat("normals", (0, 3), np.float64),
         tri_vidx=cat("vidx", (0, 3), np.int32), tri_normal=cat("tri_normal", (0, 3), np.float64),
         tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), np.float64),
         tri_body=cat("tri_body", (0,), np.int32), tri_material=cat("tri_material", (0,), np.int32),
