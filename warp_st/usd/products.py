@@ -107,7 +107,8 @@ def _pixel_type(where: Where, var, data_type: str, source_name: str, sources: tu
 def _cryptomatte_var(where: Where, var, source_name: str) -> RenderVar:
     """A Cryptomatte layer (docs/spec.md §4.4): its float32 RGBA rank groups, named
     ``<aov name>00.R ..`` (the aov name, else the prim name, is the layer's typename)."""
-    data_type = _string(where, var, "dataType") or "color4f"
+    authored = var.GetAttribute("dataType")
+    data_type = (_string(where, var, "dataType") if authored and authored.HasAuthoredValue() else None) or "color4f"
     if data_type not in ("color4f", "float4"):
         raise where.error(var, "dataType", f"{data_type!r} cannot hold source {source_name!r} (Cryptomatte "
                           "layers are float32 RGBA); use color4f or float4")
