@@ -1,4 +1,5 @@
-"""Cryptomatte (docs/spec.md §4.4): the CryptoObject layer decodes to each object's pixels.
+"""Cryptomatte (docs/spec.md §4.4): the CryptoObject and CryptoMaterial layers decode to each
+object's (material's) pixels.
 
 Oracles:
 - the Cryptomatte specification 1.1.0 (Psyop, github.com/Psyop/Cryptomatte,
@@ -39,7 +40,26 @@ def Camera "Cam" {
     uniform token[] xformOpOrder = ["xformOp:translate"]
     float focalLength = 20
 }
-def Cube "Red" {
+def Scope "Looks" {
+    def Material "RedMat" {
+        token outputs:surface.connect = </Looks/RedMat/PS.outputs:surface>
+        def Shader "PS" {
+            uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor = (1, 0, 0)
+            token outputs:surface
+        }
+    }
+    def Material "BlueMat" {
+        token outputs:surface.connect = </Looks/BlueMat/PS.outputs:surface>
+        def Shader "PS" {
+            uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor = (0, 0, 1)
+            token outputs:surface
+        }
+    }
+}
+def Cube "Red" (prepend apiSchemas = ["MaterialBindingAPI"]) {
+    rel material:binding = </Looks/RedMat>
     double size = 1.5
     double3 xformOp:translate = (-1, 0, 0)
     uniform token[] xformOpOrder = ["xformOp:translate"]
@@ -55,14 +75,17 @@ def Xform "Fast" (prepend apiSchemas = ["SpacetimeBodyAPI"]) {
     double4 spacetime:fourVelocity = (1, 0.6, 0, 0)
     double3 xformOp:translate = (4, -0.9, 0.5)
     uniform token[] xformOpOrder = ["xformOp:translate"]
-    def Cube "Blue" {
+    def Cube "Blue" (prepend apiSchemas = ["MaterialBindingAPI"]) {
+        rel material:binding = </Looks/BlueMat>
         double size = 1
         color3f[] primvars:displayColor = [(0, 0, 1)]
     }
 }
 '''
-#: body prim path -> the beauty component its albedo lights (the stage above).
+#: body prim path -> the beauty component its albedo lights (the stage above); the same for
+#: the bound materials (/Green has none: displayColor).
 COLOUR = {"/Red": 0, "/Green": 1, "/Fast": 2}
+MATERIAL_COLOUR = {"/Looks/RedMat": 0, "/Looks/BlueMat": 2}
 SIZE = ("--width", "48", "--height", "27")
 
 
@@ -189,14 +212,15 @@ def test_file_opens_as_a_compositor_reads_it(renders):
     header names the layer with the hash and conversion the specification requires, under a
     key of 7 hex digits of the layer name's MurmurHash3 (mmh3 itself); the manifest is JSON."""
     header, chans = read(renders["sixteen"])
-    expected = [f"CryptoObject{g:02d}.{c}" for g in range(3) for c in "RGBA"]
-    assert {n: chans[n][0] for n in expected} == dict.fromkeys(expected, "FLOAT")
-    assert all(chans[n][1].dtype == np.float32 for n in expected)
-    key, names = layer(header, "CryptoObject")
-    assert key == f"{mmh3.hash(b'CryptoObject', 0, signed=False):08x}"[:7]
-    assert header[f"cryptomatte/{key}/hash"] == "MurmurHash3_32"
-    assert header[f"cryptomatte/{key}/conversion"] == "uint32_to_float32"
-    assert isinstance(names, dict) and names
+    for typename in ("CryptoObject", "CryptoMaterial"):
+        expected = [f"{typename}{g:02d}.{c}" for g in range(3) for c in "RGBA"]
+        assert {n: chans[n][0] for n in expected} == dict.fromkeys(expected, "FLOAT")
+        assert all(chans[n][1].dtype == np.float32 for n in expected)
+        key, names = layer(header, typename)
+        assert key == f"{mmh3.hash(typename.encode(), 0, signed=False):08x}"[:7]
+        assert header[f"cryptomatte/{key}/hash"] == "MurmurHash3_32"
+        assert header[f"cryptomatte/{key}/conversion"] == "uint32_to_float32"
+        assert isinstance(names, dict) and names
 
 
 @pytest.mark.parametrize("render", ["one", "sixteen"])
@@ -240,6 +264,38 @@ def test_sixteen_sample_mattes_are_the_beauty_coverage(renders):
     np.testing.assert_array_equal(total, chans["A"][1])
 
 
+@pytest.mark.parametrize("render", ["one", "sixteen"])
+def test_material_mattes_are_their_objects_coverage(renders, render):
+    """Law: CryptoMaterial names the bound materials' prim paths (not /Green's displayColor),
+    and each material's matte equals the beauty component of its colour; pixels of the
+    unbound /Green are in no material rank (the material mattes sum to R + B)."""
+    header, chans = read(renders[render])
+    _, names = layer(header, "CryptoMaterial")
+    assert set(names) == set(MATERIAL_COLOUR)
+    total = np.zeros_like(chans["A"][1])
+    for path, hex_id in names.items():
+        assert id_from_hex(hex_id).view(np.uint32) == spec_hash_to_float(path).view(np.uint32), path
+        m = matte(chans, "CryptoMaterial", hex_id)
+        np.testing.assert_array_equal(m, chans["RGB"[MATERIAL_COLOUR[path]]][1], err_msg=path)
+        assert (m == 1).sum() > 50, path
+        total = total + m
+    np.testing.assert_array_equal(total, chans["R"][1] + chans["B"][1])
+
+
+def test_shared_material_merges_its_objects():
+    """Law: two bodies bound to one material are one CryptoMaterial id whose coverage is the
+    sum of theirs; a triangle without a material (path "") is in no rank."""
+    # triangles 0, 1: body 0 and 1 with material 0 (/M); triangle 2: body 2, no material
+    sample_tris = np.array([[[1, 2, 3, 0], [1, 1, 1, 3]]])
+    planes, manifests = cryptomatte.image_layers(sample_tris, ("CryptoObject", "CryptoMaterial"), [0, 1, 2],
+                                                 ["/A", "/B", "/C"], [0, 0, 1], ["/M", ""])
+    assert manifests["CryptoMaterial"] == {"/M": f"{int(spec_hash_to_float('/M').view(np.uint32)):08x}"}
+    np.testing.assert_array_equal(planes["CryptoMaterial00.R"], [[spec_hash_to_float("/M")] * 2])
+    np.testing.assert_array_equal(planes["CryptoMaterial00.G"], [[0.5, 0.75]])
+    np.testing.assert_array_equal(planes["CryptoMaterial00.A"], [[0.0, 0.0]])  # nothing else
+    np.testing.assert_array_equal(planes["CryptoObject00.G"], [[0.25, 0.75]])  # /A alone, then 3 x /A
+
+
 def test_without_the_option_the_channels_are_as_before(renders):
     """Law: a render without --cryptomatte (and no product asking for it) writes exactly the
     docs/spec.md §4 channels and no cryptomatte header; with it, the SPEC channels are the
@@ -248,7 +304,8 @@ def test_without_the_option_the_channels_are_as_before(renders):
     assert set(chans) == set(CHANNEL_NAMES)
     assert not [k for k in header if k.startswith("cryptomatte/")]
     _, with_crypto = read(renders["sixteen"])
-    assert set(with_crypto) - set(chans) == set(cryptomatte.rank_channels("CryptoObject"))
+    assert set(with_crypto) - set(chans) == {*cryptomatte.rank_channels("CryptoObject"),
+                                             *cryptomatte.rank_channels("CryptoMaterial")}
     for name in CHANNEL_NAMES:
         np.testing.assert_array_equal(with_crypto[name][1], chans[name][1], err_msg=name)
 
@@ -283,10 +340,11 @@ def test_read_back_keeps_the_layer(renders, tmp_path):
     import warp_st
 
     image = warp_st.read_exr(renders["sixteen"])
-    assert set(image.cryptomatte) == {"CryptoObject"}
+    assert set(image.cryptomatte) == {"CryptoObject", "CryptoMaterial"}
     image.write_exr(tmp_path / "again.exr")
     h1, c1 = read(renders["sixteen"])
     h2, c2 = read(tmp_path / "again.exr")
-    assert layer(h1, "CryptoObject") == layer(h2, "CryptoObject")
-    for name in cryptomatte.rank_channels("CryptoObject"):
-        np.testing.assert_array_equal(c1[name][1].view(np.uint32), c2[name][1].view(np.uint32), err_msg=name)
+    for typename in image.cryptomatte:
+        assert layer(h1, typename) == layer(h2, typename)
+        for name in cryptomatte.rank_channels(typename):
+            np.testing.assert_array_equal(c1[name][1].view(np.uint32), c2[name][1].view(np.uint32), err_msg=name)

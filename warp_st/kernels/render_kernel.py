@@ -92,7 +92,7 @@ def _make_render(scalar, k, trace, Geometry):
         object_id: wp.array(dtype=wp.int32)
         source_time: wp.array(dtype=scalar)
         bounces: wp.array(dtype=wp.int32)
-        sample_id: wp.array(dtype=wp.int32)  # Cryptomatte: 1 + the body each sample hits first, 0: none; empty: off
+        sample_id: wp.array(dtype=wp.int32)  # Cryptomatte: 1 + the triangle each sample hits first, 0: none; empty: off
         visits: wp.array(dtype=wp.int32)
         overflow: wp.array(dtype=wp.int32)
 
@@ -300,7 +300,7 @@ def _make_render(scalar, k, trace, Geometry):
             if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
                 hit_id = int(0)
                 if p_k >= 0:
-                    hit_id = shd.tri_body[geo.prim_tri[p_k]] + 1
+                    hit_id = geo.prim_tri[p_k] + 1
                 film.sample_id[pixel * cam.samples + wp.max(k - 1, 0)] = hit_id
             if k == 0:
                 color = c

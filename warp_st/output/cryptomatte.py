@@ -23,8 +23,9 @@ __all__ = ["LAYERS", "GROUPS", "RANKS", "HASH", "CONVERSION", "hash32", "id_floa
            "rank_channels", "is_rank_channel", "manifest", "rank_samples", "header_attributes",
            "written_layers", "read_layers", "resolve_layers", "image_layers"]
 
-#: The layers warp_st writes and the names their ids are made from: the hit body's prim path.
-LAYERS = ("CryptoObject",)
+#: The layers warp_st writes. Their names (what the ids hash): CryptoObject, the prim path of
+#: the body a sample hits first; CryptoMaterial, that of the triangle's bound material.
+LAYERS = ("CryptoObject", "CryptoMaterial")
 #: RGBA channel groups per layer (the specification's suggested default: 6 ranks).
 GROUPS = 3
 RANKS = 2 * GROUPS
@@ -165,11 +166,26 @@ def resolve_layers(value, products=()) -> tuple[str, ...]:
     return tuple(layer for layer in LAYERS if layer in names)
 
 
-def image_layers(sample_ids: np.ndarray, layers, body_paths) -> tuple[dict[str, np.ndarray], dict[str, dict]]:
-    """(rank planes by channel name, {layer: manifest}) of ``layers`` for an image whose
-    samples hit ``sample_ids`` (see :func:`rank_samples`; 1 + index into ``body_paths``)."""
+def image_layers(sample_tris: np.ndarray, layers, tri_body, body_paths, tri_material,
+                 material_paths) -> tuple[dict[str, np.ndarray], dict[str, dict]]:
+    """(rank planes by channel name, {layer: manifest}) of ``layers``.
+
+    sample_tris: (H, W, S), 1 + the triangle each sample hits first, 0: none. tri_body,
+    tri_material: per triangle, the index into ``body_paths`` / ``material_paths`` (a
+    material path "" is no material: its samples are in no CryptoMaterial rank).
+    """
+    sample_tris = np.asarray(sample_tris, dtype=np.int64)
     planes, manifests = {}, {}
-    for layer in layers:  # CryptoObject: the body prim paths
-        planes.update({layer + suffix: plane for suffix, plane in rank_samples(sample_ids, body_paths).items()})
-        manifests[layer] = manifest(body_paths)
+    for layer in layers:
+        if layer == "CryptoObject":
+            names = list(body_paths)
+            lookup = np.asarray(tri_body, dtype=np.int64) + 1
+        else:
+            names = sorted({p for p in material_paths if p})
+            index = {p: i + 1 for i, p in enumerate(names)}
+            lookup = np.array([index.get(p, 0) for p in material_paths], dtype=np.int64)[
+                np.asarray(tri_material, dtype=np.int64)]
+        ids = np.concatenate([np.zeros(1, np.int64), lookup])[sample_tris]
+        planes.update({layer + suffix: plane for suffix, plane in rank_samples(ids, names).items()})
+        manifests[layer] = manifest(names)
     return planes, manifests

@@ -489,8 +489,10 @@ class Renderer:
         source_time = quantize_time(source_rel.astype(np.float64) + origin, origin)
         hit = object_id > 0
         paths = self.scene.body_paths()
+        tables = self.database.shapes if self.primitive == "rigid" else self.mesh
         crypto_planes, layers = image_layers(
-            film.sample_id.numpy().reshape(h, w, self.samples), self.cryptomatte, paths) if self.cryptomatte else ({}, {})
+            film.sample_id.numpy().reshape(h, w, self.samples), self.cryptomatte, tables.tri_body, paths,
+            tables.tri_material, [m.prim_path for m in tables.materials]) if self.cryptomatte else ({}, {})
         return Image(
             rgba=rgba,
             depth=film.depth.numpy().reshape(h, w).astype(np.float32),
