@@ -282,6 +282,25 @@ def test_material_mattes_are_their_objects_coverage(renders, render):
     np.testing.assert_array_equal(total, chans["R"][1] + chans["B"][1])
 
 
+def test_prism_path_mattes_are_the_beauty_coverage(tmp_path):
+    """Law: the float64 prism path (its own triangle tables) gives the same laws: each object's
+    and material's matte is the beauty component of its colour (16 samples)."""
+    import warp_st
+
+    (tmp_path / "tiny.usda").write_text(STAGE)
+    image = warp_st.render(warp_st.load(tmp_path / "tiny.usda"), width=48, height=27, samples=16,
+                           precision="float64", cryptomatte=True)
+    image.write_exr(tmp_path / "f64.exr")
+    header, chans = read(tmp_path / "f64.exr")
+    for typename, colours in (("CryptoObject", COLOUR), ("CryptoMaterial", MATERIAL_COLOUR)):
+        _, names = layer(header, typename)
+        assert set(names) == set(colours)
+        for path, hex_id in names.items():
+            m = matte(chans, typename, hex_id)
+            np.testing.assert_array_equal(m, chans["RGB"[colours[path]]][1], err_msg=path)
+            assert ((m > 0) & (m < 1)).sum() > 10, path
+
+
 def test_shared_material_merges_its_objects():
     """Law: two bodies bound to one material are one CryptoMaterial id whose coverage is the
     sum of theirs; a triangle without a material (path "") is in no rank."""

@@ -52,9 +52,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--searchlight", action="store_true", default=None,
                         help="scale radiance by D^4, the searchlight effect (off by default)")
     parser.add_argument("--cryptomatte", action="store_true", default=None,
-                        help="also write the CryptoObject and CryptoMaterial Cryptomatte layers (prim-path mattes for "
-                        "compositors; "
-                        "coverage from --samples)")
+                        help="also write the CryptoObject and CryptoMaterial Cryptomatte layers (prim-path mattes "
+                        "for compositors; coverage from --samples)")
     parser.add_argument("--precision", choices=("float32", "float64"), help="scalar type of the kernels")
     parser.add_argument("--light-speed", choices=("finite", "infinite"), help="finite (c = 1) or infinite light speed")
     parser.add_argument("--resume", action="store_true",
