@@ -93,7 +93,9 @@ def rank_samples(sample_ids: np.ndarray, names, groups: int = GROUPS) -> dict[st
     values, counts = ids[rows, cols], ends - cols
     hit = values != 0
     rows, values, counts = rows[hit], values[hit], counts[hit]
-    order = np.lexsort((values, -counts, rows))
+    # One sort key: pixel, then count (largest first), then id; rows are already in order.
+    span = int(values.max(initial=0)) + 1
+    order = np.argsort((rows * (s + 1) + (s - counts)) * span + values, kind="stable")
     rows, values, counts = rows[order], values[order], counts[order]
     rank = np.arange(len(rows)) - np.searchsorted(rows, rows, side="left")
     kept = rank < ranks
