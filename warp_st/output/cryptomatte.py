@@ -32,6 +32,7 @@ RANKS = 2 * GROUPS
 HASH = "MurmurHash3_32"
 CONVERSION = "uint32_to_float32"
 _COMPONENTS = ("R", "G", "B", "A")
+_BLOCK_SAMPLES = 1 << 20
 _ATTR = re.compile(r"cryptomatte/([^/]+)/(name|hash|conversion|manifest)")
 
 
@@ -73,18 +74,10 @@ def manifest(names) -> dict[str, str]:
     return {str(name): id_hex(str(name)) for name in names}
 
 
-def rank_samples(sample_ids: np.ndarray, names, groups: int = GROUPS) -> dict[str, np.ndarray]:
-    """A layer's rank planes from per-sample ids.
-
-    sample_ids: (H, W, S) integers, 0 for a sample that hit nothing, i >= 1 for one whose
-        first hit is ``names[i - 1]``. Each sample weighs 1 / S (the beauty's box filter).
-    Returns ``{suffix: (H, W) float32}`` for the suffixes ``00.R .. NN.A``: per pixel the
-    distinct names its samples hit, by coverage (ties: the lower index first), as
-    (id, coverage) pairs; samples that hit nothing are in no rank.
-    """
-    h, w, s = sample_ids.shape
-    ranks = 2 * groups
-    ids = np.sort(np.asarray(sample_ids, dtype=np.int64).reshape(h * w, s), axis=1)
+def _ranked(ids: np.ndarray, ranks: int) -> tuple[np.ndarray, np.ndarray]:
+    """(index, coverage), each (N, ranks), of the ids (N, S) of N pixels (see rank_samples)."""
+    n, s = ids.shape
+    ids = np.sort(ids, axis=1)
     starts = np.ones(ids.shape, dtype=bool)
     starts[:, 1:] = ids[:, 1:] != ids[:, :-1]
     rows, cols = np.nonzero(starts)  # row-major: each pixel's runs of equal ids, in order
@@ -99,11 +92,32 @@ def rank_samples(sample_ids: np.ndarray, names, groups: int = GROUPS) -> dict[st
     rows, values, counts = rows[order], values[order], counts[order]
     rank = np.arange(len(rows)) - np.searchsorted(rows, rows, side="left")
     kept = rank < ranks
-    table = np.concatenate([np.zeros(1, np.float32), id_float([hash32(str(n)) for n in names])])
-    id_planes = np.zeros((h * w, ranks), dtype=np.float32)
-    coverage = np.zeros((h * w, ranks), dtype=np.float32)
-    id_planes[rows[kept], rank[kept]] = table[values[kept]]
+    index = np.zeros((n, ranks), dtype=np.int64)
+    coverage = np.zeros((n, ranks), dtype=np.float32)
+    index[rows[kept], rank[kept]] = values[kept]
     coverage[rows[kept], rank[kept]] = (counts[kept] / s).astype(np.float32)
+    return index, coverage
+
+
+def rank_samples(sample_ids: np.ndarray, names, groups: int = GROUPS) -> dict[str, np.ndarray]:
+    """A layer's rank planes from per-sample ids.
+
+    sample_ids: (H, W, S) integers, 0 for a sample that hit nothing, i >= 1 for one whose
+        first hit is ``names[i - 1]``. Each sample weighs 1 / S (the beauty's box filter).
+    Returns ``{suffix: (H, W) float32}`` for the suffixes ``00.R .. NN.A``: per pixel the
+    distinct names its samples hit, by coverage (ties: the lower index first), as
+    (id, coverage) pairs; samples that hit nothing are in no rank. Pixels are ranked in
+    blocks of about a million samples (bounded host memory).
+    """
+    h, w, s = sample_ids.shape
+    ranks = 2 * groups
+    flat = np.asarray(sample_ids).reshape(h * w, s)
+    block = max(1, _BLOCK_SAMPLES // s)
+    parts = [_ranked(flat[i:i + block].astype(np.int64), ranks) for i in range(0, h * w, block)]
+    index = np.concatenate([p[0] for p in parts])
+    coverage = np.concatenate([p[1] for p in parts])
+    table = np.concatenate([np.zeros(1, np.float32), id_float([hash32(str(n)) for n in names])])
+    id_planes = table[index]
     planes = {}
     for r in range(ranks):  # 00.R, 00.G, 00.B, 00.A, 01.R, ...
         g, second = divmod(r, 2)
@@ -176,18 +190,18 @@ def image_layers(sample_tris: np.ndarray, layers, tri_body, body_paths, tri_mate
     tri_material: per triangle, the index into ``body_paths`` / ``material_paths`` (a
     material path "" is no material: its samples are in no CryptoMaterial rank).
     """
-    sample_tris = np.asarray(sample_tris, dtype=np.int64)
+    sample_tris = np.asarray(sample_tris, dtype=np.int32)
     planes, manifests = {}, {}
     for layer in layers:
         if layer == "CryptoObject":
             names = list(body_paths)
-            lookup = np.asarray(tri_body, dtype=np.int64) + 1
+            lookup = np.asarray(tri_body, dtype=np.int32) + 1
         else:
             names = sorted({p for p in material_paths if p})
             index = {p: i + 1 for i, p in enumerate(names)}
-            lookup = np.array([index.get(p, 0) for p in material_paths], dtype=np.int64)[
+            lookup = np.array([index.get(p, 0) for p in material_paths], dtype=np.int32)[
                 np.asarray(tri_material, dtype=np.int64)]
-        ids = np.concatenate([np.zeros(1, np.int64), lookup])[sample_tris]
+        ids = np.concatenate([np.zeros(1, np.int32), lookup])[sample_tris]
         planes.update({layer + suffix: plane for suffix, plane in rank_samples(ids, names).items()})
         manifests[layer] = manifest(names)
     return planes, manifests
