@@ -183,11 +183,15 @@ def test_conversion_clamps_the_exponent_only():
     assert np.all(np.isfinite(got)) and np.all(np.abs(got) >= np.finfo(np.float32).tiny)
 
 
-def test_ranking_matches_brute_force():
+@pytest.mark.parametrize("block", [None, 3 * 12])
+def test_ranking_matches_brute_force(monkeypatch, block):
     """Law: per pixel, the distinct non-zero sample ids by count (ties: the lower id first),
     each with coverage count / S; at most 6 ranks (3 groups); empty ranks 0, 0.
     Oracle: collections.Counter per pixel. Pixels of 12 samples over ids 0..8 (up to 8
-    distinct objects: more than 6 ranks) and all-background pixels."""
+    distinct objects: more than 6 ranks) and all-background pixels; in one block, and in
+    blocks of 3 pixels (the last one shorter)."""
+    if block is not None:
+        monkeypatch.setattr(cryptomatte, "_BLOCK_SAMPLES", block)
     rng = np.random.default_rng(7)
     ids = rng.integers(0, 9, size=(5, 7, 12))
     ids[0, 0] = 0
