@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import mmh3
 import numpy as np
-import OpenEXR
-from test_cryptomatte import SIZE, STAGE
+from test_cryptomatte import SIZE, STAGE, read
 
 from warp_st.commands.cli import main
 
@@ -36,13 +35,6 @@ def Scope "Render" {{
     }}
 }}
 '''
-
-
-def read(path):
-    with OpenEXR.File(str(path), separate_channels=True) as f:
-        header = dict(f.header())
-        chans = {n: (str(c.type()).rsplit(".", 1)[-1], np.array(c.pixels)) for n, c in f.channels().items()}
-    return header, chans
 
 
 def test_render_var_writes_the_layer_under_its_aov_name(tmp_path, monkeypatch):

@@ -11,7 +11,9 @@ possibly time-sampled; camera and resolution overriding the settings'); each pro
 - the names: ``driver:parameters:aov:name`` (default: the var's prim name, as the
   UsdRender schema says) for one component, ``<name>.R/.G/.B(/.A)`` for several, except
   the beauty layer (colour named color, rgba, Ci or C; alpha named a or alpha), whose
-  channels are the plain R, G, B, A a compositor reads as its rgba layer.
+  channels are the plain R, G, B, A a compositor reads as its rgba layer;
+- a Cryptomatte source (``CryptoObject``, ``CryptoMaterial``): its float32 rank groups
+  ``<name>00.R .. <name>02.A`` (docs/spec.md §4.4).
 
 Anything else is a SceneError naming the file, the prim and the attribute.
 """
