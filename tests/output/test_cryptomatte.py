@@ -371,3 +371,18 @@ def test_read_back_keeps_the_layer(renders, tmp_path):
         assert layer(h1, typename) == layer(h2, typename)
         for name in cryptomatte.rank_channels(typename):
             np.testing.assert_array_equal(c1[name][1].view(np.uint32), c2[name][1].view(np.uint32), err_msg=name)
+
+
+def test_material_with_an_unsupported_shader_keeps_its_name(tmp_path):
+    """Law: a gprim bound to a material warp_st cannot shade (not a UsdPreviewSurface; drawn
+    with displayColor) is still named by that material in CryptoMaterial; a gprim with only
+    displayColor has no material name. Oracle: the stage's own binding paths."""
+    import warp_st
+
+    (tmp_path / "s.usda").write_text(STAGE.replace('uniform token info:id = "UsdPreviewSurface"\n'
+                                                   '            color3f inputs:diffuseColor = (0, 0, 1)',
+                                                   'uniform token info:id = "SomeOtherShader"'))
+    scene = warp_st.load(tmp_path / "s.usda")
+    paths = {b.prim_path: b.surfaces[0].material.prim_path for b in scene.bodies}
+    assert paths == {"/Red": "/Looks/RedMat", "/Green": "", "/Fast": "/Looks/BlueMat"}
+    assert scene.bodies[2].surfaces[0].material.diffuse == (0.0, 0.0, 1.0)  # its displayColor
