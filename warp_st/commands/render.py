@@ -51,6 +51,9 @@ def add_arguments(parser) -> None:
                         help="shift each surface's colour by its Doppler factor D (off by default)")
     parser.add_argument("--searchlight", action="store_true", default=None,
                         help="scale radiance by D^4, the searchlight effect (off by default)")
+    parser.add_argument("--cryptomatte", action="store_true", default=None,
+                        help="also write the CryptoObject and CryptoMaterial Cryptomatte layers (prim-path mattes "
+                        "for compositors; coverage from --samples)")
     parser.add_argument("--precision", choices=("float32", "float64"), help="scalar type of the kernels")
     parser.add_argument("--light-speed", choices=("finite", "infinite"), help="finite (c = 1) or infinite light speed")
     parser.add_argument("--quadrics", choices=("exact", "tessellated"),
@@ -100,7 +103,7 @@ def plan_outputs(args, scene_path: Path, frames: list[float], frames_given: bool
 
 def _options_text(args) -> str:
     names = ("camera", "width", "height", "max_depth", "samples", "shutter", "doppler_color", "searchlight",
-             "precision", "light_speed", "quadrics", "no_references")
+             "cryptomatte", "precision", "light_speed", "quadrics", "no_references")
     return " ".join(f"{n}={getattr(args, n)}" for n in names if getattr(args, n) not in (None, False))
 
 
@@ -143,6 +146,7 @@ def run(args, argv: list[str]) -> int:
         shutter=args.shutter,
         doppler_color=args.doppler_color,
         searchlight=args.searchlight,
+        cryptomatte=args.cryptomatte,
         precision=Precision(args.precision) if args.precision else None,
         light_speed=LightSpeed(args.light_speed) if args.light_speed else None,
         quadrics=args.quadrics,

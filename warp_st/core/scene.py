@@ -69,12 +69,14 @@ class Diagnostic:
 class Material:
     """UsdPreviewSurface subset. Colours are linear RGB.
 
-    ``metallic`` is the weight of a perfect mirror (docs/spec.md §2).
+    ``metallic`` is the weight of a perfect mirror (docs/spec.md §2). ``prim_path``: the
+    bound UsdShade.Material's ("" for displayColor): the CryptoMaterial names (§4.4).
     """
 
     diffuse: tuple[float, float, float] = (0.18, 0.18, 0.18)
     emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)
     metallic: float = 0.0
+    prim_path: str = ""
 
 
 @dataclass(frozen=True, eq=False)

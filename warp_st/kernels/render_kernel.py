@@ -94,6 +94,7 @@ def _make_render(scalar, k, trace, Geometry):
         object_id: wp.array(dtype=wp.int32)
         source_time: wp.array(dtype=scalar)
         bounces: wp.array(dtype=wp.int32)
+        sample_id: wp.array(dtype=wp.int32)  # Cryptomatte: 1 + the triangle each sample hits first, 0: none; empty: off
         visits: wp.array(dtype=wp.int32)
         overflow: wp.array(dtype=wp.int32)
 
@@ -301,6 +302,11 @@ def _make_render(scalar, k, trace, Geometry):
             c, a, p_k, s_k, _lam, st_k, sb_k, ray_visits, ray_ovf = trace_path(geo, shd, cam, ray_o, ray_n)
             visits += ray_visits
             overflow = wp.max(overflow, ray_ovf)
+            if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
+                hit_id = int(0)
+                if p_k >= 0:
+                    hit_id = geo.prim_tri[p_k] + 1
+                film.sample_id[pixel * cam.samples + wp.max(k - 1, 0)] = hit_id
             if k == 0:
                 color = c
                 alpha = a

@@ -25,6 +25,9 @@ Header attributes:
   manifest when none is written), component ``primPath``, ids not hashed,
   lifetime "shot" (ids are stage traversal order: stable over the frames of one
   stage). Compositors that read ID manifests find the prim path of each id there.
+- ``cryptomatte/<key>/name``, ``/hash``, ``/conversion``, ``/manifest``: strings, for each
+  Cryptomatte layer of ``Image.cryptomatte`` whose rank channels the file holds, under the
+  name they are written with (:mod:`warp_st.output.cryptomatte`, docs/spec.md §4.4).
 
 Writes are atomic: the file is encoded into ``.NAME.<pid>.tmp`` in the target
 directory, fsynced and renamed over the final name, so an interrupted or failed
@@ -43,6 +46,7 @@ import OpenEXR
 from warp_st.core.native_output import captured_output
 from warp_st.core.scene import SceneError
 from warp_st.core.version import __version__
+from warp_st.output import cryptomatte
 from warp_st.output.channels import CHANNEL_NAMES, OutputChannel, channel_spec
 
 __all__ = ["write_exr", "read_file", "read_header", "is_complete_exr", "completeness", "atomic_output",
@@ -187,6 +191,16 @@ def _file_planes(image, channels) -> tuple[dict[str, np.ndarray], set[str]]:
     return planes, ids
 
 
+def _cryptomatte_header(image, channels) -> dict[str, str]:
+    """The ``cryptomatte/<key>/*`` attributes of the layers the channels write."""
+    pairs = ([(name, name) for name in image.channel_names] if channels is None
+             else [(c.name, c.source) for c in map(OutputChannel._make, channels)])
+    attrs: dict[str, str] = {}
+    for typename, layer in cryptomatte.written_layers(image.cryptomatte, pairs).items():
+        attrs.update(cryptomatte.header_attributes(typename, image.cryptomatte[layer]))
+    return attrs
+
+
 def write_exr(image, path, channels=None, *, run: str | None = None) -> None:
     """Write ``image`` to ``path`` (docs/spec.md §4), atomically.
 
@@ -197,7 +211,7 @@ def write_exr(image, path, channels=None, *, run: str | None = None) -> None:
     a failure while encoding leaves ``path`` untouched and no temporary file.
     """
     planes, id_channels = _file_planes(image, channels)
-    header = _header(image, id_channels, run)
+    header = {**_header(image, id_channels, run), **_cryptomatte_header(image, channels)}
     with atomic_output(path) as fh:
         _encode(header, planes, fh)
 
@@ -304,6 +318,7 @@ def read_file(path) -> dict:
             precision=str(header.get(ATTR_PRECISION, "")),
             id_manifest=_read_manifest(header.get(ATTR_ID_MANIFEST)),
             metadata=metadata,
+            cryptomatte=cryptomatte.read_layers(header),
             extra=extra,
         )
     except (KeyError, ValueError, TypeError) as exc:  # a damaged or foreign header

@@ -56,8 +56,11 @@ class Image:
     attributes, written as ``spacetime:<key>``; the writer adds ``version``),
     channels: the docs/spec.md §4 channels held (None = all; a file read back lists those
     it had), and extra: channels outside docs/spec.md §4 read from a file (renamed
-    RenderVar outputs such as ``beauty.R``), name -> (H, W) array as stored
+    RenderVar outputs such as ``beauty.R``) or rendered as Cryptomatte rank channels
+    (``CryptoObject00.R``, docs/spec.md §4.4), name -> (H, W) array as stored
     (float16, float32 or uint32; a renamed eventTime is relative to time_origin).
+    cryptomatte: the Cryptomatte layers held in ``extra``, typename -> manifest (name ->
+    8 hex digits of its id), written to and read from the ``cryptomatte/<key>/*`` header.
     """
 
     rgba: np.ndarray
@@ -76,6 +79,7 @@ class Image:
     metadata: dict[str, str] = field(default_factory=dict)
     channels: tuple[str, ...] | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
+    cryptomatte: dict[str, dict[str, str]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         rgba = np.ascontiguousarray(self.rgba, dtype=np.float32)
@@ -113,6 +117,8 @@ class Image:
                                  f"float16, float32 or uint32 array, got {value.dtype} {value.shape}")
             extra[str(name)] = value
         self.extra = extra
+        self.cryptomatte = {str(k): {str(n): str(i) for n, i in dict(v).items()}
+                            for k, v in dict(self.cryptomatte).items()}
 
     @property
     def height(self) -> int:

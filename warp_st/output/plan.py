@@ -27,6 +27,7 @@ from warp_st.core.conventions import DEFAULT_RESOLUTION
 from warp_st.core.frames import expand_output, frame_label, has_frame_pattern
 from warp_st.core.scene import RenderProduct, Scene, SceneError
 from warp_st.core.version import __version__
+from warp_st.output import cryptomatte
 from warp_st.output.channels import CHANNEL_NAMES
 from warp_st.output.film import OutputChannel
 
@@ -239,8 +240,11 @@ def _output_problem(output: Output, frame: float, run: str | None) -> str | None
     why, header, present = completeness(output.path, names)
     if why is not None or run is None:
         return why
-    if set(present) != set(names):
-        return f"holds other channels ({', '.join(sorted(set(present) - set(names)))}) than this run writes"
+    others = set(present) - set(names)
+    if output.channels is None:  # an all-channel file also holds the Cryptomatte layers its run computed
+        others = {c for c in others if not any(cryptomatte.is_rank_channel(c, lay) for lay in cryptomatte.LAYERS)}
+    if others:
+        return f"holds other channels ({', '.join(sorted(others))}) than this run writes"
     expected = json.loads(output_identity(run, frame, output))
     if expected["stage"] is None:
         return "the scene is held in memory: nothing to check the file against (give a stage file to resume)"

@@ -25,6 +25,7 @@ from warp_st.core.limits import resolve_max_memory
 from warp_st.core.native_output import captured_output
 from warp_st.core.scene import CameraState, Scene, SceneError
 from warp_st.kernels.layout import PRIMITIVES
+from warp_st.output.cryptomatte import image_layers, resolve_layers
 from warp_st.output.film import Image, quantize_time
 from warp_st.rendering import database_cache
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
@@ -138,6 +139,9 @@ class Renderer:
         UsdGeom.Sphere is traced as its exact ellipsoid, spacetime/rigid.py) or
         "tessellated" (every sphere as triangles within half a pixel; the only choice on
         the prism and tet paths).
+    cryptomatte: the Cryptomatte layers to compute (True: all; docs/spec.md §4.4), kept
+        in the Image's ``extra`` with their manifests in ``Image.cryptomatte``; None:
+        those the stage's render products name.
 
     Two options exist to measure the database's rules (examples/benchmarks), not to
     render: the default None keeps the renderer's own rules.
@@ -170,6 +174,7 @@ class Renderer:
         max_memory: int | str | None = None,
         primitive: str | None = None,
         quadrics: str | None = None,
+        cryptomatte: bool | str | tuple | None = None,
         sweep_fraction: float | None = None,
         adjust_windows=None,
     ):
@@ -220,6 +225,10 @@ class Renderer:
             raise SceneError.at(src, None, "quadrics", "exact quadrics are traced on the rigid path only "
                                                        "(float32); use quadrics='tessellated'")
         self.exact_quadrics = quadrics != "tessellated" and primitive == "rigid"
+        try:  # Cryptomatte layers (docs/spec.md §4.4); None: those the stage's products name
+            self.cryptomatte = resolve_layers(cryptomatte, scene.products)
+        except (TypeError, ValueError) as exc:
+            raise SceneError.at(src, None, "cryptomatte", str(exc)) from None
         width = _positive_int(width, "width", src)
         height = _positive_int(height, "height", src)
         res = settings.resolution or DEFAULT_RESOLUTION
@@ -458,6 +467,7 @@ class Renderer:
             setattr(film, name, wp.zeros(n_pix, dtype=k.scalar, device="cpu"))
         film.object_id = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
         film.bounces = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
+        film.sample_id = wp.zeros(n_pix * self.samples if self.cryptomatte else 0, dtype=wp.int32, device="cpu")
         film.visits = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
         film.overflow = wp.zeros(1, dtype=wp.int32, device="cpu")
 
@@ -496,6 +506,11 @@ class Renderer:
         source_rel = film.source_time.numpy().reshape(h, w)
         source_time = quantize_time(source_rel.astype(np.float64) + origin, origin)
         hit = object_id > 0
+        paths = self.scene.body_paths()
+        tables = self.database.shapes if self.primitive == "rigid" else self.mesh
+        crypto_planes, layers = image_layers(
+            film.sample_id.numpy().reshape(h, w, self.samples), self.cryptomatte, tables.tri_body, paths,
+            tables.tri_material, [m.prim_path for m in tables.materials]) if self.cryptomatte else ({}, {})
         return Image(
             rgba=rgba,
             depth=film.depth.numpy().reshape(h, w).astype(np.float32),
@@ -509,7 +524,9 @@ class Renderer:
             time_origin=origin,
             frame=frame,
             precision=self.precision.value,
-            id_manifest={i + 1: b.prim_path for i, b in enumerate(self.scene.bodies)},
+            id_manifest={i + 1: path for i, path in enumerate(paths)},
+            extra=crypto_planes,
+            cryptomatte=layers,
             metadata={
                 "stage": str(self.scene.source),
                 "camera": str(self.camera_path),

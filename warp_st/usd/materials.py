@@ -11,6 +11,7 @@ too, and the default is used.
 """
 from __future__ import annotations
 
+import dataclasses
 import threading
 
 import numpy as np
@@ -67,6 +68,7 @@ class MaterialReader:
                 self._by_material[key] = self._preview_surface(material)
             if self._by_material[key] is not None:
                 return self._by_material[key]
+            return dataclasses.replace(self._display_color(prim), prim_path=key)  # still its CryptoMaterial
         return self._display_color(prim)
 
     def _preview_surface(self, material) -> Material | None:
@@ -94,6 +96,7 @@ class MaterialReader:
             diffuse=tuple(self._input(shader, "diffuseColor", 3, defaults.diffuse)),
             emissive=tuple(self._input(shader, "emissiveColor", 3, defaults.emissive)),
             metallic=float(np.clip(self._input(shader, "metallic", 1, (defaults.metallic,))[0], 0.0, 1.0)),
+            prim_path=str(material.GetPath()),
         )
         self._other_inputs(shader)
         return material_out

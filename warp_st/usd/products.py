@@ -11,7 +11,9 @@ possibly time-sampled; camera and resolution overriding the settings'); each pro
 - the names: ``driver:parameters:aov:name`` (default: the var's prim name, as the
   UsdRender schema says) for one component, ``<name>.R/.G/.B(/.A)`` for several, except
   the beauty layer (colour named color, rgba, Ci or C; alpha named a or alpha), whose
-  channels are the plain R, G, B, A a compositor reads as its rgba layer.
+  channels are the plain R, G, B, A a compositor reads as its rgba layer;
+- a Cryptomatte source (``CryptoObject``, ``CryptoMaterial``): its float32 rank groups
+  ``<name>00.R .. <name>02.A`` (docs/spec.md §4.4).
 
 Anything else is a SceneError naming the file, the prim and the attribute.
 """
@@ -20,6 +22,7 @@ from __future__ import annotations
 from pxr import UsdGeom, UsdRender
 
 from warp_st.core.scene import RenderProduct, RenderVar
+from warp_st.output import cryptomatte
 from warp_st.output.film import CHANNEL_NAMES, channel_spec
 from warp_st.usd.attributes import DEFAULT_TIME, Where
 
@@ -81,9 +84,10 @@ def _source(where: Where, var, source_name: str, source_type: str) -> tuple[str,
         return _BEAUTY
     if source_type == "primvar":
         raise where.error(var, "sourceType", "warp_st writes no primvar outputs; use sourceType raw with a "
-                          f"sourceName of {', '.join(SOURCES)}")
+                          f"sourceName of {', '.join((*SOURCES, *cryptomatte.LAYERS))}")
     if source_name not in SOURCES:
-        raise where.error(var, "sourceName", f"unknown source {source_name!r}; known: {', '.join(SOURCES)}")
+        raise where.error(var, "sourceName", f"unknown source {source_name!r}; known: "
+                          f"{', '.join((*SOURCES, *cryptomatte.LAYERS))}")
     return SOURCES[source_name]
 
 
@@ -102,6 +106,23 @@ def _pixel_type(where: Where, var, data_type: str, source_name: str, sources: tu
     return DATA_TYPES[data_type]
 
 
+def _cryptomatte_var(where: Where, var, source_name: str) -> RenderVar:
+    """A Cryptomatte layer (docs/spec.md §4.4): its float32 RGBA rank groups, named
+    ``<aov name>00.R ..`` (the aov name, else the prim name, is the layer's typename)."""
+    authored = var.GetAttribute("dataType")
+    data_type = (_string(where, var, "dataType") if authored and authored.HasAuthoredValue() else None) or "color4f"
+    if data_type not in ("color4f", "float4"):
+        raise where.error(var, "dataType", f"{data_type!r} cannot hold source {source_name!r} (Cryptomatte "
+                          "layers are float32 RGBA); use color4f or float4")
+    aov_name = _string(where, var, AOV_NAME)
+    if aov_name is not None and not aov_name.strip():
+        raise where.error(var, AOV_NAME, "is empty: name the EXR channel")
+    name = aov_name or var.GetName()
+    sources = cryptomatte.rank_channels(source_name)
+    return RenderVar(str(var.GetPath()), source_name, data_type,
+                     tuple((name + s[len(source_name):], s) for s in sources))
+
+
 def read_var(where: Where, var) -> RenderVar:
     """One UsdRender.Var resolved to channels (see the module docstring)."""
     prim_name = var.GetName()
@@ -109,6 +130,8 @@ def read_var(where: Where, var) -> RenderVar:
     source_type = _string(where, var, "sourceType") or "raw"
     if source_type not in ("raw", "intrinsic", "lpe", "primvar"):
         raise where.error(var, "sourceType", f"must be raw, primvar, lpe or intrinsic; got {source_type!r}")
+    if source_name in cryptomatte.LAYERS and source_type in ("raw", "intrinsic"):
+        return _cryptomatte_var(where, var, source_name)
     sources = _source(where, var, source_name, source_type)
     data_type = _string(where, var, "dataType") or "color3f"
     pixel_type, components = _pixel_type(where, var, data_type, source_name, sources)
