@@ -372,8 +372,8 @@ def _make_render(scalar, k, trace, Geometry):
 
 @functools.lru_cache(maxsize=None)
 def get_kernels(precision: str, primitive: str = "prism") -> Kernels:
-    """Kernels for ``"float32"``/``"float64"`` and a primitive of PRIMITIVES (``"rigid"``
-    in float32 only), built once per process."""
+    """Kernels for ``"float32"``/``"float64"`` and a primitive of PRIMITIVES, built
+    once per process (``"rigid"`` in float64 serves scenes of exact quadrics only)."""
     scalar = {"float32": wp.float32, "float64": wp.float64}[precision]
     if primitive not in PRIMITIVES:
         raise ValueError(f"primitive must be one of {', '.join(PRIMITIVES)}, got {primitive!r}")

@@ -1,4 +1,4 @@
-"""Ray casting against rigid bodies as instances (pure Warp device code, float32).
+"""Ray casting against rigid bodies as instances (pure Warp device code).
 
 Two levels (``warp_st.spacetime.rigid``, ``warp_st.accel.instances``):
 
@@ -51,8 +51,10 @@ ANALYTIC = 2.0
 
 
 def make_trace_rigid(scalar):
-    if scalar != wp.float32:
-        raise ValueError("the rigid (two-level) path traces in float32 (wp.Mesh); use primitive='prism' for float64")
+    """The rigid path's Geometry and traversal in ``scalar``. The bottom levels'
+    ``wp.Mesh`` queries are float32 whatever ``scalar`` is (``at``): in float64 the path
+    is exact only for analytic shapes, which is why the renderer takes it in float64 only
+    for scenes of exact quadrics (``rendering.renderer``)."""
     vec2 = wp.types.vector(2, scalar)
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
@@ -197,9 +199,10 @@ def make_trace_rigid(scalar):
         return s, normal
 
     @wp.func
-    def at(p: wp.vec3d, d: wp.vec3d, s: wp.float64) -> vec3:
+    def at(p: wp.vec3d, d: wp.vec3d, s: wp.float64) -> wp.vec3:
+        """The ray's point at s, as a float32 ``wp.Mesh`` query takes it."""
         q = p + d * s
-        return vec3(scalar(q[0]), scalar(q[1]), scalar(q[2]))
+        return wp.vec3(wp.float32(q[0]), wp.float32(q[1]), wp.float32(q[2]))
 
     @wp.func
     def leaf(g: Geometry, ray: Ray, first: int, count: int, o: vec4, n: vec3, finite: int, s_min: scalar,
@@ -239,7 +242,7 @@ def make_trace_rigid(scalar):
                 if e0 < e1:  # the body's own box is met: start where its frame's is entered
                     e0, _e = rest_range(g.body_start_lo[body], g.body_start_hi[body], p, d, wp.float64(s_from),
                                         wp.float64(s_hi))
-                direction = vec3(scalar(d[0]), scalar(d[1]), scalar(d[2]))
+                direction = wp.vec3(wp.float32(d[0]), wp.float32(d[1]), wp.float32(d[2]))
                 mesh = g.body_mesh[body]
                 base = g.body_tri_base[body]
                 if g.body_quadric[body] != 0:
@@ -253,7 +256,7 @@ def make_trace_rigid(scalar):
                 elif any_hit != 0 and body != skip_body:
                     e0 = wp.max(e0, wp.float64(s_lo))
                     if e0 < e1:
-                        if wp.mesh_query_ray_anyhit(mesh, at(p, d, e0), direction, scalar(e1 - e0)):
+                        if wp.mesh_query_ray_anyhit(mesh, at(p, d, e0), direction, wp.float32(e1 - e0)):
                             return s_hi, base, vec4(scalar(0.0))
                 else:
                     # Start at the body's rest box. A hit on ``skip_tri`` is stepped over;
@@ -263,7 +266,7 @@ def make_trace_rigid(scalar):
                     s_life = wp.float64(o[0]) - g.body_end[body]
                     for attempt in range(4):
                         if e0 < e1:
-                            q = wp.mesh_query_ray(mesh, at(p, d, e0), direction, scalar(e1 - e0))
+                            q = wp.mesh_query_ray(mesh, at(p, d, e0), direction, wp.float32(e1 - e0))
                             if q.result:
                                 s = e0 + wp.float64(q.t)
                                 if base + q.face == skip_tri:
@@ -271,7 +274,8 @@ def make_trace_rigid(scalar):
                                 elif s >= wp.float64(s_lo):
                                     best = scalar(s)
                                     best_prim = base + q.face
-                                    best_lam = vec4(q.u, q.v, scalar(1.0) - q.u - q.v, scalar(0.0))
+                                    best_lam = vec4(scalar(q.u), scalar(q.v), scalar(1.0) - scalar(q.u) - scalar(q.v),
+                                                    scalar(0.0))
                                     e1 = wp.float64(-1.0)
                                 elif s < s_life:
                                     e0 = s_life

@@ -13,6 +13,11 @@ than on the absolute time. :func:`relative_f32` is the one conversion the writer
 uses; :func:`quantize_time` is what the renderer applies to its absolute times so
 that the in-memory image already equals what a round trip through the file gives
 back (write -> read is then bitwise exact, see :func:`quantize_time`).
+
+Float64 renders keep more: each time channel gets a companion ``<name>Low`` (an extra
+float32 channel, :data:`LOW_TIME_CHANNELS`) holding the rounding residual of the float32
+relative time, so hi + lo carries ~48 bits of the lookback (:func:`split_time`,
+:func:`join_time`; docs/spec.md §4).
 """
 from __future__ import annotations
 
@@ -31,6 +36,9 @@ __all__ = [
     "relative_f32",
     "absolute_time",
     "quantize_time",
+    "split_time",
+    "join_time",
+    "LOW_TIME_CHANNELS",
     "OutputChannel",
 ]
 
@@ -90,6 +98,8 @@ CHANNELS: tuple[ChannelSpec, ...] = (
 )
 
 CHANNEL_NAMES: tuple[str, ...] = tuple(c.name for c in CHANNELS)
+#: Time channel -> its float64 renders' residual channel (an Image extra, module docstring).
+LOW_TIME_CHANNELS: dict[str, str] = {c.name: c.name + "Low" for c in CHANNELS if c.relative_time}
 REQUIRED_CHANNELS: tuple[str, ...] = tuple(c.name for c in CHANNELS if c.required)
 _BY_NAME = {c.name: c for c in CHANNELS}
 
@@ -139,6 +149,21 @@ def quantize_time(absolute, origin: float) -> np.ndarray:
     so q(a) = a.
     """
     return absolute_time(relative_f32(absolute, origin), origin)
+
+
+def split_time(absolute, origin: float) -> tuple[np.ndarray, np.ndarray]:
+    """(hi, lo) float32: hi = float32(absolute - origin), lo = float32 of what hi missed."""
+    rel = np.asarray(absolute, dtype=np.float64) - np.float64(origin)
+    hi = rel.astype(np.float32)
+    with np.errstate(invalid="ignore"):  # inf - inf: a lo of NaN beside an infinite hi
+        lo = np.where(np.isfinite(hi), rel - hi.astype(np.float64), 0.0).astype(np.float32)
+    return hi, lo
+
+
+def join_time(hi, lo, origin: float) -> np.ndarray:
+    """The absolute times of a (hi, lo) pair: (float64(hi) + float64(lo)) + origin."""
+    return (np.asarray(hi, dtype=np.float32).astype(np.float64) + np.asarray(lo, dtype=np.float32)) + np.float64(
+        origin)
 
 
 class OutputChannel(NamedTuple):

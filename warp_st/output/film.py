@@ -14,11 +14,13 @@ from warp_st.output.channels import (  # noqa: F401 - re-exported for callers of
     _FIELD_DTYPES,
     CHANNEL_NAMES,
     CHANNELS,
+    LOW_TIME_CHANNELS,
     REQUIRED_CHANNELS,
     ChannelSpec,
     OutputChannel,
     absolute_time,
     channel_spec,
+    join_time,
     quantize_time,
     relative_f32,
 )
@@ -187,7 +189,11 @@ class Image:
             if spec.component is not None or spec.name not in planes:
                 continue
             stored = np.asarray(planes[spec.name], dtype=spec.file_dtype)
-            fields[spec.attribute] = absolute_time(stored, time_origin) if spec.relative_time else stored
+            low = extra.get(LOW_TIME_CHANNELS.get(spec.name, ""))
+            if low is not None and low.dtype == np.float32 and low.shape == stored.shape:
+                fields[spec.attribute] = join_time(stored, low, time_origin)  # a float64 render's times
+            else:
+                fields[spec.attribute] = absolute_time(stored, time_origin) if spec.relative_time else stored
         present = tuple(n for n in CHANNEL_NAMES if n in planes)
         channels = None if present == CHANNEL_NAMES else present
         return cls(rgba=rgba, time_origin=time_origin, channels=channels, extra=extra, **fields, **header)

@@ -25,13 +25,14 @@ from warp_st.core.limits import resolve_max_memory
 from warp_st.core.native_output import captured_output
 from warp_st.core.scene import CameraState, Scene, SceneError
 from warp_st.kernels.layout import PRIMITIVES
+from warp_st.output.channels import LOW_TIME_CHANNELS, join_time, split_time
 from warp_st.output.cryptomatte import image_layers, resolve_layers
 from warp_st.output.film import Image, quantize_time
 from warp_st.rendering import database_cache
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
-from warp_st.spacetime.rigid import quadric_body
+from warp_st.spacetime.rigid import all_exact_quadrics, quadric_body
 from warp_st.spacetime.visibility import union, visibility_windows
 
 __all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION", "PRIMITIVES",
@@ -138,7 +139,8 @@ class Renderer:
     quadrics: "exact" (the default on the rigid path: a body whose one surface is a
         UsdGeom.Sphere is traced as its exact ellipsoid, spacetime/rigid.py) or
         "tessellated" (every sphere as triangles within half a pixel; the only choice on
-        the prism and tet paths).
+        the prism and tet paths). In float64 the rigid path is the default, and allowed,
+        only when every body is an exact quadric (its meshes would be traced in float32).
     cryptomatte: the Cryptomatte layers to compute (True: all; docs/spec.md §4.4), kept
         in the Image's ``extra`` with their manifests in ``Image.cryptomatte``; None:
         those the stage's render products name.
@@ -211,10 +213,14 @@ class Renderer:
         self.doppler_color = bool(settings.doppler_color)
         self.searchlight = bool(settings.searchlight)
         self.precision = Precision(settings.precision or Precision.FLOAT32)
+        # The rigid path's wp.Mesh queries are float32: in float64 it serves only scenes
+        # whose every body is an exact quadric (then it is exact in float64).
+        all_exact = quadrics != "tessellated" and all_exact_quadrics(scene)
         if primitive is None:
-            primitive = "rigid" if self.precision == Precision.FLOAT32 else "prism"
-        if primitive == "rigid" and self.precision != Precision.FLOAT32:
-            raise SceneError.at(src, None, "primitive", "rigid traces in float32 only; use prism or tet for float64")
+            primitive = "rigid" if self.precision == Precision.FLOAT32 or all_exact else "prism"
+        if primitive == "rigid" and self.precision != Precision.FLOAT32 and not all_exact:
+            raise SceneError.at(src, None, "primitive", "rigid traces meshes in float32 (wp.Mesh): in float64 only "
+                                                        "scenes of exact quadrics; use prism or tet")
         if primitive == "rigid" and sweep_fraction is not None:
             raise ValueError("sweep_fraction sets the extrusion's time segments; the rigid path has none "
                              "(use primitive='prism' or 'tet')")
@@ -222,8 +228,9 @@ class Renderer:
         if quadrics not in (None, "exact", "tessellated"):
             raise SceneError.at(src, None, "quadrics", f"must be exact or tessellated, got {quadrics!r}")
         if quadrics == "exact" and primitive != "rigid":
-            raise SceneError.at(src, None, "quadrics", "exact quadrics are traced on the rigid path only "
-                                                       "(float32); use quadrics='tessellated'")
+            raise SceneError.at(src, None, "quadrics", "exact quadrics are traced on the rigid path only (float32, "
+                                                       "or float64 for scenes of nothing else); use "
+                                                       "quadrics='tessellated'")
         self.exact_quadrics = quadrics != "tessellated" and primitive == "rigid"
         try:  # Cryptomatte layers (docs/spec.md §4.4); None: those the stage's products name
             self.cryptomatte = resolve_layers(cryptomatte, scene.products)
@@ -500,11 +507,18 @@ class Renderer:
         rgba = film.rgba.numpy().reshape(h, w, 4).astype(np.float32)
         rel = film.event_time.numpy().reshape(h, w)
         origin = float(cam.time)
-        # Absolute event time: float64(rel) + t_c, quantised exactly as the EXR stores it.
-        event_time = quantize_time(rel.astype(np.float64) + origin, origin)
         object_id = film.object_id.numpy().reshape(h, w).astype(np.uint32)
         source_rel = film.source_time.numpy().reshape(h, w)
-        source_time = quantize_time(source_rel.astype(np.float64) + origin, origin)
+        # Absolute times, quantised exactly as the EXR stores them: float32 relative to t_c,
+        # and in float64 renders with each one's float32 residual beside it (channels.py).
+        times, lows = {}, {}
+        for name, value in (("spacetime.eventTime", rel), ("spacetime.sourceTime", source_rel)):
+            if self.precision == Precision.FLOAT64:
+                hi, lows[LOW_TIME_CHANNELS[name]] = split_time(value.astype(np.float64) + origin, origin)
+                times[name] = join_time(hi, lows[LOW_TIME_CHANNELS[name]], origin)
+            else:
+                times[name] = quantize_time(value.astype(np.float64) + origin, origin)
+        event_time, source_time = times["spacetime.eventTime"], times["spacetime.sourceTime"]
         hit = object_id > 0
         paths = self.scene.body_paths()
         tables = self.database.shapes if self.primitive == "rigid" else self.mesh
@@ -525,7 +539,7 @@ class Renderer:
             frame=frame,
             precision=self.precision.value,
             id_manifest={i + 1: path for i, path in enumerate(paths)},
-            extra=crypto_planes,
+            extra={**crypto_planes, **lows},
             cryptomatte=layers,
             metadata={
                 "stage": str(self.scene.source),

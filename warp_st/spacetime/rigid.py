@@ -28,7 +28,7 @@ from warp_st.core.scene import Scene
 from warp_st.spacetime.extrude import TriangleTables, _body_size, body_triangles
 from warp_st.spacetime.visibility import intervals
 
-__all__ = ["RigidShapes", "rigid_shapes", "ellipsoid", "quadric_body", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
+__all__ = ["RigidShapes", "rigid_shapes", "ellipsoid", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,6 +99,12 @@ def quadric_body(body, exact: bool) -> bool:
     if not exact or len(body.surfaces) != 1 or body.surfaces[0].sphere is None:
         return False
     return abs(float(np.linalg.det(ellipsoid(body.surfaces[0])[0]))) > 1e-300
+
+
+def all_exact_quadrics(scene: Scene) -> bool:
+    """True when ``scene`` has bodies with surfaces and each is an exact quadric."""
+    shaped = [b for b in scene.bodies if b.surfaces]
+    return bool(shaped) and all(quadric_body(b, True) for b in shaped)
 
 
 def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
