@@ -177,6 +177,19 @@ def test_matching_frames_are_kept_untouched(folder):
     assert run_record(folder / "f.0002.exr") == {**run_record(kept[0]), "frame": 2.0}
 
 
+def test_float64_frames_are_kept(folder):
+    """A float64 run's files hold its time residuals (spacetime.eventTimeLow, ...): they are
+    what that run writes, so the same run keeps them."""
+    assert render(*SIZE, "--precision", "float64") == 0
+    kept = folder / "f.0000.exr"
+    assert "spacetime.eventTimeLow" in exr.read_file(kept)["extra"]
+    before = (kept.read_bytes(), kept.stat().st_mtime_ns)
+    assert render(*SIZE, "--precision", "float64", "--resume", "--log", "run.jsonl") == 0
+    log = records()
+    assert set(frame_status(log).values()) == {"skipped"} and stale(log) == {}
+    assert (kept.read_bytes(), kept.stat().st_mtime_ns) == before
+
+
 def test_version_forged(folder):
     """A file whose record names another software version is rendered again; so is one
     without a record (an older version or another tool)."""

@@ -28,7 +28,7 @@ from warp_st.core.frames import expand_output, frame_label, has_frame_pattern
 from warp_st.core.scene import RenderProduct, Scene, SceneError
 from warp_st.core.version import __version__
 from warp_st.output import cryptomatte
-from warp_st.output.channels import CHANNEL_NAMES
+from warp_st.output.channels import CHANNEL_NAMES, LOW_TIME_CHANNELS
 from warp_st.output.film import OutputChannel
 
 __all__ = ["Output", "FrameJob", "OutputPlanError", "plan_pattern", "plan_products", "single_view",
@@ -243,6 +243,8 @@ def _output_problem(output: Output, frame: float, run: str | None) -> str | None
     others = set(present) - set(names)
     if output.channels is None:  # an all-channel file also holds the Cryptomatte layers its run computed
         others = {c for c in others if not any(cryptomatte.is_rank_channel(c, lay) for lay in cryptomatte.LAYERS)}
+        # and a float64 run's time residuals (the run record's precision tells the two apart)
+        others -= set(LOW_TIME_CHANNELS.values())
     if others:
         return f"holds other channels ({', '.join(sorted(others))}) than this run writes"
     expected = json.loads(output_identity(run, frame, output))
