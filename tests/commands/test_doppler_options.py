@@ -16,7 +16,7 @@ import pytest
 
 import warp_st
 from warp_st.commands.cli import main
-from warp_st.kernels.spectrum import doppler_transform_np
+from warp_st.core.doppler_colour import doppler_transform_np
 
 WIDTH, HEIGHT = 16, 12
 

@@ -22,7 +22,7 @@ from analytic_scenes import EPS32, pixel_directions
 
 from warp_st.core import lorentz
 from warp_st.core.scene import Body, CameraState, Material, RenderSettings, Scene, Surface
-from warp_st.kernels.spectrum import doppler_transform_np
+from warp_st.core.doppler_colour import doppler_transform_np
 from warp_st.rendering.renderer import Renderer
 
 EMISSION = np.array([0.3, 0.45, 0.2])

@@ -29,7 +29,6 @@ class Kernels:
         self.vec3 = wp.types.vector(3, scalar)
         self.vec4 = wp.types.vector(4, scalar)
         self.vec16 = wp.types.vector(16, scalar)  # box corners of a wide node's four children
-        self.mat33 = wp.types.matrix((3, 3), scalar)
         if primitive == "rigid":
             Geometry, trace, prepare, leaf = make_trace_rigid(scalar)
         else:
@@ -57,10 +56,10 @@ class Kernels:
 
 
 def _make_render(scalar, k, trace, Geometry):
-    vec3, vec4, mat33 = k.vec3, k.vec4, k.mat33
+    vec3, vec4 = k.vec3, k.vec4
     FAR = 1.0e30
-    Shading, self_eps, shading_normal, shade, reflect_null = make_shade(scalar, vec3, vec4, Geometry, trace, mat33)
-    doppler_transform = make_spectrum(scalar, vec3, mat33)
+    Shading, self_eps, shading_normal, shade, reflect_null = make_shade(scalar, vec3, vec4, Geometry, trace)
+    doppler_transform = make_spectrum(scalar, vec3)
 
     @wp.struct
     class Camera:
@@ -197,7 +196,7 @@ def _make_render(scalar, k, trace, Geometry):
             overflow = wp.max(overflow, ovf)
             if prim < 0:
                 if depth > 0:
-                    bg = doppler_transform(shd.background, cam_term / energy, shd.basis_inv, shd.color_shift, shd.searchlight)
+                    bg = doppler_transform(shd.background, cam_term / energy, shd.doppler_table, shd.color_shift, shd.searchlight)
                     color = color + wp.cw_mul(weight, bg)
                 break
             event = o + s * null_dir(n, finite)
@@ -217,7 +216,7 @@ def _make_render(scalar, k, trace, Geometry):
                 body_term = ub[0]
                 if finite != 0:
                     body_term = ub[0] + n[0] * ub[1] + n[1] * ub[2] + n[2] * ub[3]
-                local = doppler_transform(local, cam_term / (energy * body_term), shd.basis_inv, shd.color_shift, shd.searchlight)
+                local = doppler_transform(local, cam_term / (energy * body_term), shd.doppler_table, shd.color_shift, shd.searchlight)
                 color = color + wp.cw_mul(weight, local) * (scalar(1.0) - metal)
                 source_t = event[0]
                 source_bounces = bounces

@@ -7,9 +7,7 @@ import warp as wp
 __all__ = ["make_shade"]
 
 
-def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
-    if mat33 is None:
-        mat33 = wp.types.matrix((3, 3), scalar)
+def make_shade(scalar, vec3, vec4, Geometry, trace):
     # Secondary rays start this far (relative to the path length so far) from the hit
     # event: in float32 1e-4 is ~1000 ulps, far above the rounding of the hit.
     SELF_EPS = 1.0e-4 if wp.types.type_size_in_bytes(scalar) == 4 else 1.0e-9
@@ -37,7 +35,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
         light_count: int
         background: vec3
         max_depth: int
-        basis_inv: mat33  # spectral basis for the Doppler colour shift (spectrum.py)
+        doppler_table: wp.array(dtype=vec3)  # Doppler colour shift table (spectrum.py)
         color_shift: int
         searchlight: int
 

@@ -14,9 +14,9 @@ import warp as wp
 from warp_st.accel.bvh import FlatBVH
 from warp_st.accel.bvh_wide import collapse, wide_boxes
 from warp_st.core.conventions import BOX_PAD_ULPS
+from warp_st.core.doppler_colour import doppler_table
 from warp_st.core.scene import Light
 from warp_st.kernels import Kernels
-from warp_st.kernels.spectrum import spectral_basis_inverse
 from warp_st.spacetime.extrude import SpacetimeMesh
 
 __all__ = ["ShadingTables", "StaticArrays", "make_geometry", "set_nodes", "outward", "make_shading"]
@@ -160,7 +160,9 @@ def make_shading(
     s.light_count = len(lights)
     s.background = k.vec3(*[float(x) for x in background])
     s.max_depth = int(max_depth)
-    s.basis_inv = k.mat33(*spectral_basis_inverse().reshape(-1).tolist())
+    # the colour table is built (and the colour library imported) only when it is used
+    table = doppler_table().reshape(-1, 3) if doppler_color else np.zeros((1, 3))
+    s.doppler_table = wp.array(table.astype(ns), dtype=k.vec3, device=_DEVICE)
     s.color_shift = 1 if doppler_color else 0
     s.searchlight = 1 if searchlight else 0
     return s
