@@ -39,35 +39,27 @@ def make_spectrum(scalar, vec3):
                 i = wp.min(int(wp.floor(u)), LAST - 1)
                 f = u - scalar(i)
                 r, g, b = rgb[0], rgb[1], rgb[2]
-                # Smits (1999): white * min + secondary * (middle - min) + primary * (max - middle)
-                lo = b
-                sec = int(3)  # yellow
-                x = r
-                y = g
-                p_x = int(4)  # red, when x is the largest
-                p_y = int(5)  # green, when y is the largest
-                if r <= g and r <= b:
-                    lo = r
-                    sec = 1  # cyan
-                    x = g
-                    y = b
-                    p_x = 5
-                    p_y = 6
-                elif g <= r and g <= b:
-                    lo = g
-                    sec = 2  # magenta
-                    x = r
-                    y = b
-                    p_x = 4
-                    p_y = 6
-                prim = p_y
-                if x > y:
-                    prim = p_x
-                mid = wp.min(x, y)
+                # Smits (1999): white * min + secondary * (mid - min) + primary * (max - mid),
+                # the secondary the complement of the smallest component (cyan, magenta,
+                # yellow), the primary the largest one's (red, green, blue). At a tie the
+                # choice does not matter: its weight is 0.
+                lo = wp.min(r, wp.min(g, b))
+                hi = wp.max(r, wp.max(g, b))
+                mid = wp.max(wp.min(r, g), wp.min(wp.max(r, g), b))
+                sec = int(3)
+                if r == lo:
+                    sec = 1
+                elif g == lo:
+                    sec = 2
+                prim = int(6)
+                if r == hi:
+                    prim = 4
+                elif g == hi:
+                    prim = 5
                 out = (
                     lo * basis_rgb(table, i, f, 0)
                     + (mid - lo) * basis_rgb(table, i, f, sec)
-                    + (wp.max(x, y) - mid) * basis_rgb(table, i, f, prim)
+                    + (hi - mid) * basis_rgb(table, i, f, prim)
                 )
             else:
                 out = vec3(scalar(0.0))
