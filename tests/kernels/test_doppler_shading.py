@@ -11,26 +11,30 @@ from warp_st.kernels.spectrum import make_spectrum
 from warp_st.rendering.renderer import Renderer, init_warp
 
 
-def _run_transform(rgb, d, cs, sl):
-    """The Warp ``doppler_transform`` on float32 colours (n, 3) and Doppler factors (n,)."""
+def _run_transform(rgb, d, cs, sl, scalar=wp.float32):
+    """The Warp ``doppler_transform`` in ``scalar`` on colours (n, 3) and Doppler factors (n,)."""
     init_warp()
-    vec3 = wp.types.vector(3, wp.float32)
-    transform = make_spectrum(wp.float32, vec3)
+    vec3 = wp.types.vector(3, scalar)
+    transform = make_spectrum(scalar, vec3)
 
     @wp.kernel(enable_backward=False, module="unique")
-    def run(rgb: wp.array(dtype=vec3), d: wp.array(dtype=wp.float32), table: wp.array(dtype=vec3), cs: int, sl: int,
+    def run(rgb: wp.array(dtype=vec3), d: wp.array(dtype=scalar), table: wp.array(dtype=vec3), cs: int, sl: int,
             out: wp.array(dtype=vec3)):
         i = wp.tid()
         out[i] = transform(rgb[i], d[i], table, cs, sl)
 
-    table = wp.array(doppler_table().reshape(-1, 3).astype(np.float32), dtype=vec3)
+    ns = np.float32 if scalar == wp.float32 else np.float64
+    table = wp.array(doppler_table().reshape(-1, 3).astype(ns), dtype=vec3)
     out = wp.zeros(len(d), dtype=vec3)
-    wp.launch(run, dim=len(d), inputs=[wp.array(rgb, dtype=vec3), wp.array(d), table, cs, sl, out])
+    wp.launch(run, dim=len(d), inputs=[wp.array(rgb.astype(ns), dtype=vec3), wp.array(d.astype(ns), dtype=scalar),
+                                       table, cs, sl, out])
     return out.numpy()
 
 
-def test_kernel_transform_matches_float64_twin():
-    """The Warp function equals its float64 NumPy twin, which integrates the Smits spectrum
+@pytest.mark.parametrize("scalar", [wp.float32, wp.float64])
+def test_kernel_transform_matches_float64_twin(scalar):
+    """The Warp function (float32, and float64 as ``--precision float64`` compiles it)
+    equals its float64 NumPy twin, which integrates the Smits spectrum
     against the tabulated CIE CMFs directly (no table), on 2,000 seeded random colours and
     Doppler factors 0.05..20 (past both ends of the table, all flag combinations).
     Tolerance: 3e-4 absolute after dividing by max(1, D^4). The table's linear
@@ -43,7 +47,7 @@ def test_kernel_transform_matches_float64_twin():
     d = np.exp(rng.uniform(np.log(0.05), np.log(20.0), 2000)).astype(np.float32)
     for cs in (0, 1):
         for sl in (0, 1):
-            got = _run_transform(rgb, d, cs, sl)
+            got = _run_transform(rgb, d, cs, sl, scalar)
             want = doppler_transform_np(rgb, d, color_shift=bool(cs), searchlight=bool(sl))
             scale = np.maximum(1.0, d.astype(np.float64) ** 4 * sl)[:, None]
             np.testing.assert_allclose(got / scale, want / scale, rtol=0, atol=3e-4)

@@ -20,7 +20,10 @@ __all__ = ["make_spectrum"]
 
 def make_spectrum(scalar, vec3):
     LO, PER = float(LOG2_D_MIN), float(NODES_PER_OCTAVE)
-    LAST = (LOG2_D_MAX - LOG2_D_MIN) * NODES_PER_OCTAVE  # index of the last node
+    # the last node's index, as a float (the clamp) and the last interval's (an int): one
+    # closure constant used as both types trips Warp 1.19's float64 codegen
+    U_MAX = float((LOG2_D_MAX - LOG2_D_MIN) * NODES_PER_OCTAVE)
+    I_MAX = (LOG2_D_MAX - LOG2_D_MIN) * NODES_PER_OCTAVE - 1
 
     @wp.func
     def basis_rgb(table: wp.array(dtype=vec3), i: int, f: scalar, k: int) -> vec3:
@@ -35,8 +38,8 @@ def make_spectrum(scalar, vec3):
         out = rgb
         if color_shift != 0:
             if d > scalar(0.0):
-                u = wp.clamp((wp.log2(d) - scalar(LO)) * scalar(PER), scalar(0.0), scalar(LAST))
-                i = wp.min(int(wp.floor(u)), LAST - 1)
+                u = wp.clamp((wp.log2(d) - scalar(LO)) * scalar(PER), scalar(0.0), scalar(U_MAX))
+                i = wp.min(int(wp.floor(u)), I_MAX)
                 f = u - scalar(i)
                 r, g, b = rgb[0], rgb[1], rgb[2]
                 # Smits (1999): white * min + secondary * (mid - min) + primary * (max - mid),
