@@ -73,3 +73,28 @@ def test_white_moves_along_the_planckian_locus():
         assert abs(temps[nearest] / (dc.WHITE_K * d) - 1.0) < 0.05, (d, temps[nearest])
         points.append(xy)
     assert np.linalg.norm(points[0] - points[-1]) > 0.08
+
+
+def test_cached_table_is_the_computed_one(tmp_path, monkeypatch):
+    """The renderer's table file: written on first use, bit-identical to the computation,
+    then read without computing (the computation is made to raise), and a damaged file
+    (truncated bytes, or an array of another shape) is computed again and replaced."""
+    want = dc.doppler_table()
+    first = dc.cached_doppler_table(tmp_path)
+    np.testing.assert_array_equal(first, want)
+    (path,) = tmp_path.glob("doppler_colour_*.npy")
+
+    def no_computing():
+        raise AssertionError("the table was computed again")
+
+    with monkeypatch.context() as m:
+        m.setattr(dc, "doppler_table", no_computing)
+        np.testing.assert_array_equal(dc.cached_doppler_table(tmp_path), want)
+    for damage in (path.read_bytes()[:100], None):
+        if damage is None:
+            np.save(path, np.zeros((3, 7, 3)))
+        else:
+            path.write_bytes(damage)
+        np.testing.assert_array_equal(dc.cached_doppler_table(tmp_path), want)
+        np.testing.assert_array_equal(np.load(path), want)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]  # no temporary files left

@@ -22,12 +22,17 @@ identity for every colour.
 from __future__ import annotations
 
 import functools
+import hashlib
+import importlib.metadata
+import os
 import warnings
+from pathlib import Path
 
 import numpy as np
 
 __all__ = ["BASES", "LOG2_D_MIN", "LOG2_D_MAX", "NODES_PER_OCTAVE", "WHITE_K", "cmfs", "d_nodes",
-           "smits_weights", "smits_spectrum", "received_xyz", "doppler_table", "doppler_transform_np"]
+           "smits_weights", "smits_spectrum", "received_xyz", "doppler_table", "cached_doppler_table",
+           "doppler_transform_np"]
 
 #: Smits (1999) basis spectra in table order; the kernel indexes them 0..6.
 BASES = ("white", "cyan", "magenta", "yellow", "red", "green", "blue")
@@ -137,6 +142,34 @@ def doppler_table() -> np.ndarray:
     one = -LOG2_D_MIN * NODES_PER_OCTAVE
     assert np.abs(table[one] - _IDEAL).max() < 1e-9
     table[one] = _IDEAL  # exact in float32 too
+    return table
+
+
+def cached_doppler_table(folder) -> np.ndarray:
+    """``doppler_table()`` through a file in ``folder`` (the renderer passes Warp's kernel
+    cache): later processes need neither the colour library's import (~0.8 s) nor the
+    integration (~0.2 s). The file name carries a hash of this module's source and the
+    library's version, so a change of either makes a new file; a missing, unreadable or
+    malformed file is computed again and written atomically; an unwritable folder only
+    costs the computation."""
+    key = hashlib.sha256(Path(__file__).read_bytes() + importlib.metadata.version("colour-science").encode())
+    path = Path(folder) / f"doppler_colour_{key.hexdigest()[:16]}.npy"
+    n_d = (LOG2_D_MAX - LOG2_D_MIN) * NODES_PER_OCTAVE + 1
+    try:
+        table = np.load(path)
+        if table.shape == (n_d, 7, 3) and table.dtype == np.float64:
+            return table
+    except (OSError, ValueError, EOFError):
+        pass
+    table = doppler_table()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        with open(tmp, "wb") as f:
+            np.save(f, table)
+        os.replace(tmp, path)
+    except OSError:
+        pass
     return table
 
 

@@ -31,7 +31,9 @@ def make_spectrum(scalar, vec3):
         return a + f * (table[i * 7 + 7 + k] - a)
 
     @wp.func
-    def doppler_transform(rgb: vec3, d: scalar, table: wp.array(dtype=vec3), color_shift: int, searchlight: int) -> vec3:
+    def doppler_transform(
+        rgb: vec3, d: scalar, table: wp.array(dtype=vec3), color_shift: int, searchlight: int
+    ) -> vec3:
         """Radiance seen through Doppler factor d (received / emitted frequency)."""
         if d == scalar(1.0) or (color_shift == 0 and searchlight == 0):
             return rgb

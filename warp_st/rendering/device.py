@@ -14,7 +14,7 @@ import warp as wp
 from warp_st.accel.bvh import FlatBVH
 from warp_st.accel.bvh_wide import collapse, wide_boxes
 from warp_st.core.conventions import BOX_PAD_ULPS
-from warp_st.core.doppler_colour import doppler_table
+from warp_st.core.doppler_colour import cached_doppler_table
 from warp_st.core.scene import Light
 from warp_st.kernels import Kernels
 from warp_st.spacetime.extrude import SpacetimeMesh
@@ -160,8 +160,8 @@ def make_shading(
     s.light_count = len(lights)
     s.background = k.vec3(*[float(x) for x in background])
     s.max_depth = int(max_depth)
-    # the colour table is built (and the colour library imported) only when it is used
-    table = doppler_table().reshape(-1, 3) if doppler_color else np.zeros((1, 3))
+    # the colour table is read (or built, importing the colour library) only when it is used
+    table = cached_doppler_table(wp.config.kernel_cache_dir).reshape(-1, 3) if doppler_color else np.zeros((1, 3))
     s.doppler_table = wp.array(table.astype(ns), dtype=k.vec3, device=_DEVICE)
     s.color_shift = 1 if doppler_color else 0
     s.searchlight = 1 if searchlight else 0
