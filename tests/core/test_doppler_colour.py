@@ -98,3 +98,20 @@ def test_cached_table_is_the_computed_one(tmp_path, monkeypatch):
         np.testing.assert_array_equal(dc.cached_doppler_table(tmp_path), want)
         np.testing.assert_array_equal(np.load(path), want)
     assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]  # no temporary files left
+
+
+def test_table_interpolation_is_within_its_stated_bound():
+    """Linear interpolation of the table in log2 D, at a quarter, half and three quarters of
+    every interval, against the direct integration for each basis: within
+    INTERPOLATION_ERROR (the bound other tests' tolerances use), and not loose by more
+    than 2x (so the bound means something)."""
+    table, log2_d = dc.doppler_table(), np.log2(dc.d_nodes())
+    worst = 0.0
+    for frac in (0.25, 0.5, 0.75):
+        d = 2.0 ** (log2_d[:-1] + frac / dc.NODES_PER_OCTAVE)
+        interpolated = (1 - frac) * table[:-1] + frac * table[1:]
+        for k in range(7):
+            exact = dc.doppler_transform_np(np.broadcast_to(dc._IDEAL[k], d.shape + (3,)), d, color_shift=True,
+                                            searchlight=False)
+            worst = max(worst, np.abs(interpolated[:, k] - exact).max())
+    assert dc.INTERPOLATION_ERROR / 2 < worst < dc.INTERPOLATION_ERROR
