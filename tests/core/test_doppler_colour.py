@@ -47,7 +47,7 @@ def test_unit_doppler_is_the_identity_of_the_integration():
     rgb = np.random.default_rng(4).uniform(-0.5, 3.0, (300, 3))
     out = dc.doppler_transform_np(rgb, np.full(300, 1.0 + 1e-12), color_shift=True, searchlight=False)
     np.testing.assert_allclose(out, rgb, rtol=0, atol=1e-9)
-    np.testing.assert_array_equal(dc.doppler_table()[-dc.LOG2_D_MIN * dc.NODES_PER_OCTAVE], dc._IDEAL)
+    np.testing.assert_array_equal(dc.doppler_table()[-dc.LOG2_D_MIN * dc.NODES_PER_OCTAVE], dc.IDEAL_RGB)
 
 
 def test_white_moves_along_the_planckian_locus():
@@ -111,7 +111,7 @@ def test_table_interpolation_is_within_its_stated_bound():
         d = 2.0 ** (log2_d[:-1] + frac / dc.NODES_PER_OCTAVE)
         interpolated = (1 - frac) * table[:-1] + frac * table[1:]
         for k in range(7):
-            exact = dc.doppler_transform_np(np.broadcast_to(dc._IDEAL[k], d.shape + (3,)), d, color_shift=True,
+            exact = dc.doppler_transform_np(np.broadcast_to(dc.IDEAL_RGB[k], d.shape + (3,)), d, color_shift=True,
                                             searchlight=False)
             worst = max(worst, np.abs(interpolated[:, k] - exact).max())
     assert dc.INTERPOLATION_ERROR / 2 < worst < dc.INTERPOLATION_ERROR

@@ -30,13 +30,14 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["BASES", "LOG2_D_MIN", "LOG2_D_MAX", "NODES_PER_OCTAVE", "INTERPOLATION_ERROR", "WHITE_K", "cmfs", "d_nodes",
-           "smits_weights", "smits_spectrum", "received_xyz", "doppler_table", "cached_doppler_table",
-           "doppler_transform_np"]
+__all__ = ["BASES", "IDEAL_RGB", "LOG2_D_MIN", "LOG2_D_MAX", "NODES_PER_OCTAVE", "INTERPOLATION_ERROR", "WHITE_K",
+           "cmfs", "d_nodes", "smits_weights", "smits_spectrum", "received_xyz", "doppler_table",
+           "cached_doppler_table", "doppler_transform_np"]
 
 #: Smits (1999) basis spectra in table order; the kernel indexes them 0..6.
 BASES = ("white", "cyan", "magenta", "yellow", "red", "green", "blue")
-_IDEAL = np.array([[1, 1, 1], [0, 1, 1], [1, 0, 1], [1, 1, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64)
+#: The ideal linear RGB of each basis, in BASES order.
+IDEAL_RGB = np.array([[1, 1, 1], [0, 1, 1], [1, 0, 1], [1, 1, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=np.float64)
 #: Table range: D in [2^-4, 2^4] (clamped outside), 256 nodes per octave, D = 1 a node.
 LOG2_D_MIN, LOG2_D_MAX, NODES_PER_OCTAVE = -4, 4, 256
 #: Bound on the table's linear interpolation error, per unit basis weight (absolute, in
@@ -87,7 +88,7 @@ def _white(lam_nm: np.ndarray) -> np.ndarray:
 
 
 def smits_weights(rgb) -> np.ndarray:
-    """Smits (1999) basis weights (..., 7) of linear RGB (..., 3); exact: weights @ _IDEAL == rgb."""
+    """Smits (1999) basis weights (..., 7) of linear RGB (..., 3); exact: weights @ IDEAL_RGB == rgb."""
     rgb = np.asarray(rgb, dtype=np.float64)
     r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
     w = np.zeros(rgb.shape[:-1] + (7,))
@@ -132,7 +133,7 @@ def _normalisation() -> tuple[np.ndarray, np.ndarray]:
     bal1 = balance[:, None] * raw1
     q = bal1[:, 4:7]  # red, green, blue
     k = np.eye(7)
-    k[4:7, :] += np.linalg.solve(q, _IDEAL.T - bal1)
+    k[4:7, :] += np.linalg.solve(q, IDEAL_RGB.T - bal1)
     return balance, k
 
 
@@ -144,8 +145,8 @@ def doppler_table() -> np.ndarray:
     raw = np.stack([_raw_rgb(j, d) for j in range(7)], axis=-1)  # (n_D, 3, 7)
     table = np.einsum("c,dcj,jk->dkc", balance, raw, k)
     one = -LOG2_D_MIN * NODES_PER_OCTAVE
-    assert np.abs(table[one] - _IDEAL).max() < 1e-9
-    table[one] = _IDEAL  # exact in float32 too
+    assert np.abs(table[one] - IDEAL_RGB).max() < 1e-9
+    table[one] = IDEAL_RGB  # exact in float32 too
     return table
 
 
