@@ -25,6 +25,7 @@ import functools
 import hashlib
 import importlib.metadata
 import os
+import threading
 import warnings
 from pathlib import Path
 
@@ -169,7 +170,7 @@ def cached_doppler_table(folder) -> np.ndarray:
     table = doppler_table()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
         with open(tmp, "wb") as f:
             np.save(f, table)
         os.replace(tmp, path)
