@@ -98,8 +98,8 @@ def read_light(where, prim, world: Gf.Matrix4d, notes) -> Light | None:
         radius = A.real(where, prim, "inputs:radius", 0.5, minimum=0.0)
         point = bool(A.boolean(where, prim, "treatAsPoint", False))
         # a sphere's world radius under the transform's (mean) scale
-        linear = np.array([world.GetRow3(i) for i in range(3)], dtype=np.float64)
-        r = radius * float(np.cbrt(abs(np.linalg.det(linear))))
+        x, y, z = (np.array(world.GetRow3(i), dtype=np.float64) for i in range(3))
+        r = radius * float(np.cbrt(abs(x @ np.cross(y, z))))
         if normalize:
             intensity_over_pi = rgb / (4.0 * math.pi)  # L r^2 with L = rgb / (4 pi r^2), also as r -> 0
         else:
