@@ -139,9 +139,13 @@ def test_rect_and_disk_lights_carry_their_world_frame_and_area(tmp_path):
 
 
 def test_an_area_light_without_area_is_ignored_with_a_warning(tmp_path):
-    scene, messages = _load(tmp_path, 'def RectLight "Slit" {\n float inputs:width = 0\n}')
+    """Zero or negative sizes (UsdLux clips them to 0) are real-world problems: warnings, not errors."""
+    scene, messages = _load(tmp_path, 'def RectLight "Slit" {\n float inputs:width = 0\n}\n'
+                                      'def DiskLight "Dot" {\n float inputs:radius = -1\n}')
     assert scene.lights == ()
     assert any("/Slit: the RectLight has no area; ignored" in m for m in messages), messages
+    assert any("/Dot: inputs:radius: is negative (-1); 0 is used" in m for m in messages), messages
+    assert any("/Dot: the DiskLight has no area; ignored" in m for m in messages), messages
 
 
 @pytest.mark.parametrize("attribute, why", [

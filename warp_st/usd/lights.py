@@ -61,6 +61,15 @@ def _emission(where, prim) -> np.ndarray:
     return rgb
 
 
+def _size(where, prim, name: str, fallback: float, notes) -> float:
+    """A radius, width, height or angle: negative values warn and count as 0 (UsdLux clips them)."""
+    value = A.real(where, prim, name, fallback)
+    if value < 0.0:
+        notes.warn(prim, name, f"is negative ({value:g}); 0 is used", "NotHonoured")
+        return 0.0
+    return value
+
+
 def _axis(where, prim, world: Gf.Matrix4d, row: int) -> np.ndarray:
     axis = np.array(world.GetRow3(row), dtype=np.float64)
     if not np.linalg.norm(axis) > 0.0:
@@ -90,12 +99,11 @@ def read_light(where, prim, world: Gf.Matrix4d, notes) -> Light | None:
         z = _axis(where, prim, world, 2)
         direction = tuple(float(c) for c in z / np.linalg.norm(z))
     if prim.IsA(UsdLux.DistantLight):
-        angle = A.real(where, prim, "inputs:angle", 0.53, minimum=0.0)
-        size = distant_size_factor(min(angle, 360.0))
+        size = distant_size_factor(min(_size(where, prim, "inputs:angle", 0.53, notes), 360.0))
         irradiance = rgb if normalize else rgb * size
         return Light("distant", _rgb(where, prim, irradiance / math.pi), direction=direction, prim_path=path)
     if prim.IsA(UsdLux.SphereLight):
-        radius = A.real(where, prim, "inputs:radius", 0.5, minimum=0.0)
+        radius = _size(where, prim, "inputs:radius", 0.5, notes)
         point = bool(A.boolean(where, prim, "treatAsPoint", False))
         # a sphere's world radius under the transform's (mean) scale
         x, y, z = (np.array(world.GetRow3(i), dtype=np.float64) for i in range(3))
@@ -111,12 +119,12 @@ def read_light(where, prim, world: Gf.Matrix4d, notes) -> Light | None:
                      radius=0.0 if point else r)
     x, y = _axis(where, prim, world, 0), _axis(where, prim, world, 1)
     if prim.IsA(UsdLux.RectLight):
-        u = x * (0.5 * A.real(where, prim, "inputs:width", 1.0, minimum=0.0))
-        v = y * (0.5 * A.real(where, prim, "inputs:height", 1.0, minimum=0.0))
+        u = x * (0.5 * _size(where, prim, "inputs:width", 1.0, notes))
+        v = y * (0.5 * _size(where, prim, "inputs:height", 1.0, notes))
         area = 4.0 * float(np.linalg.norm(np.cross(u, v)))
         kind = "rect"
     else:
-        radius = A.real(where, prim, "inputs:radius", 0.5, minimum=0.0)
+        radius = _size(where, prim, "inputs:radius", 0.5, notes)
         u, v = x * radius, y * radius
         area = math.pi * float(np.linalg.norm(np.cross(u, v)))
         kind = "disk"
