@@ -155,3 +155,20 @@ def test_an_area_light_without_area_is_ignored_with_a_warning(tmp_path):
 def test_what_is_not_honoured_warns_naming_prim_and_attribute(tmp_path, attribute, why):
     _, messages = _load(tmp_path, f'def DiskLight "Spot" (prepend apiSchemas = ["ShapingAPI"]) {{\n {attribute}\n}}')
     assert sum(f"/Spot: {why}" in m for m in messages) == 1, messages
+
+
+def test_flattened_transforms_are_warnings_not_errors(tmp_path):
+    """A RectLight scaled flat along its Z still has its area and emits along -(X × Y); a DiskLight
+    scaled to nothing along X has no area and is skipped with a warning. Neither stops the render."""
+    scene, messages = _load(tmp_path, '''
+        def RectLight "Flat" {
+            float3 xformOp:scale = (1, 1, 0)
+            uniform token[] xformOpOrder = ["xformOp:scale"]
+        }
+        def DiskLight "Gone" {
+            float3 xformOp:scale = (0, 1, 1)
+            uniform token[] xformOpOrder = ["xformOp:scale"]
+        }''')
+    (flat,) = scene.lights
+    assert flat.kind == "rect" and flat.direction == (0.0, 0.0, 1.0)
+    assert any("/Gone: the DiskLight has no area; ignored" in m for m in messages), messages

@@ -141,8 +141,8 @@ class Light:
     kind: "sphere" (a sphere of ``radius`` about ``position``; radius 0: a point),
         "distant" (from ``direction``), "rect" or "disk" (one-sided area lights centred
         on ``position``, emitting along -``direction``).
-    direction: unit vector, the light's local +Z in the lab (towards a distant light;
-        the back of an area light).
+    direction: unit vector: a distant light's local +Z in the lab (towards it); an area
+        light's surface normal on its local +Z side (its back: it emits along -direction).
     radiance: the linear-RGB scale a Lambert surface of albedo rho multiplies, such that
         it reflects rho * radiance * cos / d^2 from a sphere or point (radiance = I / pi,
         I the radiant intensity), rho * radiance * cos from a distant light (radiance =

@@ -95,10 +95,10 @@ def read_light(where, prim, world: Gf.Matrix4d, notes) -> Light | None:
     normalize = bool(A.boolean(where, prim, "inputs:normalize", False))
     path = str(prim.GetPath())
     position = tuple(float(c) for c in world.ExtractTranslation())
-    if not prim.IsA(UsdLux.SphereLight):
+    x, y, z = (np.array(world.GetRow3(i), dtype=np.float64) for i in range(3))
+    if prim.IsA(UsdLux.DistantLight):
         z = _axis(where, prim, world, 2)
         direction = tuple(float(c) for c in z / np.linalg.norm(z))
-    if prim.IsA(UsdLux.DistantLight):
         size = distant_size_factor(min(_size(where, prim, "inputs:angle", 0.53, notes), 360.0))
         irradiance = rgb if normalize else rgb * size
         return Light("distant", _rgb(where, prim, irradiance / math.pi), direction=direction, prim_path=path)
@@ -106,7 +106,6 @@ def read_light(where, prim, world: Gf.Matrix4d, notes) -> Light | None:
         radius = _size(where, prim, "inputs:radius", 0.5, notes)
         point = bool(A.boolean(where, prim, "treatAsPoint", False))
         # a sphere's world radius under the transform's (mean) scale
-        x, y, z = (np.array(world.GetRow3(i), dtype=np.float64) for i in range(3))
         r = radius * float(np.cbrt(abs(x @ np.cross(y, z))))
         if normalize:
             intensity_over_pi = rgb / (4.0 * math.pi)  # L r^2 with L = rgb / (4 pi r^2), also as r -> 0
@@ -117,7 +116,6 @@ def read_light(where, prim, world: Gf.Matrix4d, notes) -> Light | None:
                                                   "nothing (UsdLux: radiance x area)", "NotHonoured")
         return Light("sphere", _rgb(where, prim, intensity_over_pi), position=position, prim_path=path,
                      radius=0.0 if point else r)
-    x, y = _axis(where, prim, world, 0), _axis(where, prim, world, 1)
     if prim.IsA(UsdLux.RectLight):
         u = x * (0.5 * _size(where, prim, "inputs:width", 1.0, notes))
         v = y * (0.5 * _size(where, prim, "inputs:height", 1.0, notes))
@@ -132,5 +130,7 @@ def read_light(where, prim, world: Gf.Matrix4d, notes) -> Light | None:
         notes.warn(prim, None, f"the {prim.GetTypeName()} has no area; ignored", "NotHonoured")
         return None
     radiance = (rgb / area if normalize else rgb) / math.pi
-    return Light(kind, _rgb(where, prim, radiance), position=position, direction=direction, prim_path=path,
-                 axes=(tuple(float(c) for c in u), tuple(float(c) for c in v)))
+    back = np.cross(u, v)  # the surface's normal on its local +Z side (it emits along -Z)
+    back *= (1.0 if z @ back >= 0.0 else -1.0) / np.linalg.norm(back)
+    return Light(kind, _rgb(where, prim, radiance), position=position, direction=tuple(float(c) for c in back),
+                 prim_path=path, axes=(tuple(float(c) for c in u), tuple(float(c) for c in v)))
