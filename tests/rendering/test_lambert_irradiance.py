@@ -387,3 +387,14 @@ def test_sphere_light_shadow_rays_leave_from_its_silhouette(tmp_path):
     want = ALBEDO * 10.0 * radius**2 * (to_c[..., 1:2] / d**3) * total[..., None]
     np.testing.assert_allclose(img.rgba[keep][:, :3], want[keep], rtol=1e-5, atol=1e-7)
     assert ((total > 0.1) & (total < 0.9))[keep].any() and (total < 1e-9)[keep].any(), "umbra and penumbra"
+
+
+def test_a_sphere_light_lights_nothing_inside_it(tmp_path):
+    """UsdLux's sphere emits outwards: floor points inside a SphereLight of radius 3 centred 2 above the
+    floor (within √5 of its foot) are black; the floor outside it is lit."""
+    prim = _light_prim("SphereLight", "float inputs:intensity = 1\nfloat inputs:radius = 3", at=(0.0, 2.0, 0.0))
+    img, hit = _render_and_hits(_stage(tmp_path, extra=prim))
+    foot = np.linalg.norm(hit[..., [0, 2]], axis=-1)
+    inside, outside = foot < math.sqrt(5.0) - 0.05, foot > math.sqrt(5.0) + 0.05
+    assert inside.sum() > 4 and outside.sum() > 4, "the case must have pixels on both sides"
+    assert np.all(img.rgba[inside][:, :3] == 0.0) and np.all(img.rgba[outside][:, :3] > 0.0)
