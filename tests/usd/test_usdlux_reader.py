@@ -172,3 +172,14 @@ def test_flattened_transforms_are_warnings_not_errors(tmp_path):
     (flat,) = scene.lights
     assert flat.kind == "rect" and flat.direction == (0.0, 0.0, 1.0)
     assert any("/Gone: the DiskLight has no area; ignored" in m for m in messages), messages
+
+
+def test_a_mesh_light_warns_that_it_does_not_light_the_scene(tmp_path):
+    scene, messages = _load(tmp_path, '''
+        def Mesh "Panel" (prepend apiSchemas = ["MeshLightAPI"]) {
+            point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+            int[] faceVertexCounts = [3]
+            int[] faceVertexIndices = [0, 1, 2]
+        }''')
+    assert scene.lights == ()
+    assert sum("/Panel: MeshLightAPI / VolumeLightAPI is not honoured" in m for m in messages) == 1, messages

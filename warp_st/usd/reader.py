@@ -199,6 +199,9 @@ class _StageReader:
             if prim.IsA(UsdSkel.Root):
                 notes.warn(prim, None, "UsdSkel skinning is not applied: the meshes below render as authored "
                                        "(their bind pose)", "NotHonoured")
+            if prim.HasAPI(UsdLux.MeshLightAPI) or prim.HasAPI(UsdLux.VolumeLightAPI):
+                notes.warn(prim, None, "MeshLightAPI / VolumeLightAPI is not honoured: the prim does not light "
+                                       "the scene", "NotHonoured")
             if prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
                 self._light(prim)
             elif prim.IsA(UsdGeom.PointInstancer):
