@@ -334,8 +334,9 @@ def PointInstancer "Swarm"
 
 
 def lights() -> Stage:
-    """Lights as assets author them: a dome, a rect light, a sphere light with a radius,
-    shaping and a filter, a distant light with an angle."""
+    """Lights as assets author them: a dome and a cylinder light (ignored), a rect light, a
+    sphere light with a radius (honoured), shaping and a filter (warned), a distant light
+    with an angle (honoured)."""
     return Stage("lit.usda", {"lit.usda": _stage(f'''{CAMERA}
 def Mesh "Floor"
 {{
@@ -345,6 +346,9 @@ def DomeLight "Sky"
 {{
 }}
 def RectLight "Softbox"
+{{
+}}
+def CylinderLight "Tube"
 {{
 }}
 def SphereLight "Bulb" (prepend apiSchemas = ["ShapingAPI"])
@@ -364,11 +368,10 @@ def Xform "Gobo"
 {{
 }}
 ''')}, [("/Sky", None, "DomeLight is not supported (environment lighting is not supported yet); ignored"),
-        ("/Softbox", None, "RectLight is not supported (only SphereLight and DistantLight are); ignored"),
-        ("/Bulb", "inputs:radius", "the light is drawn as a point: its radius is not honoured; ignored"),
+        ("/Tube", None, "CylinderLight is not supported (only SphereLight, DistantLight, RectLight and DiskLight "
+                        "are); ignored"),
         ("/Bulb", "inputs:shaping:cone:angle", "light shaping is not supported; ignored"),
-        ("/Bulb", "light:filters", "light filters are not supported; ignored"),
-        ("/Sun", "inputs:angle", "a distant light's angle is not honoured (its shadows are sharp); ignored")],
+        ("/Bulb", "light:filters", "light filters are not supported; ignored")],
         default_camera=False)
 
 

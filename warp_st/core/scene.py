@@ -138,11 +138,24 @@ class Body:
 
 @dataclass(frozen=True)
 class Light:
-    """A light at rest in the lab.
+    """A light at rest in the lab (UsdLux semantics: docs/spec.md §3, docs/design/usdlux.md).
 
-    kind: "sphere" (a point at ``position``) or "distant" (from ``direction``).
-    direction: unit vector from the scene towards a distant light (its local +Z).
-    radiance: intensity * color * 2**exposure, linear RGB.
+    kind: "sphere" (a sphere of ``radius`` about ``position``; radius 0: a point),
+        "distant" (from ``direction``), "rect" or "disk" (one-sided area lights centred
+        on ``position``, emitting along -``direction``).
+    direction: unit vector: a distant light's local +Z in the lab (towards it); an area
+        light's surface normal on its local +Z side (its back: it emits along -direction).
+    radiance: the linear-RGB scale a Lambert surface of albedo rho multiplies, such that
+        it reflects rho * radiance * cos / d^2 from a sphere or point (radiance = I / pi,
+        I the radiant intensity), rho * radiance * cos from a distant light (radiance =
+        E / pi, E its irradiance at normal incidence), and rho * radiance * the
+        integral of cos cos' / d^2 over an area light (radiance = L / pi, L its
+        emitted radiance).
+    radius: the emitting sphere's radius (shadow rays leave from its silhouette); 0 for
+        a point (and for ``treatAsPoint``).
+    axes: "rect"/"disk": the light's half-extent vectors along its local X and Y in
+        the lab (a rect spans position + a u + b v for a, b in [-1, 1]; a disk has
+        a^2 + b^2 <= 1).
     """
 
     kind: str
@@ -150,6 +163,14 @@ class Light:
     position: tuple[float, float, float] = (0.0, 0.0, 0.0)
     direction: tuple[float, float, float] = (0.0, 0.0, 1.0)
     prim_path: str = ""
+    radius: float = 0.0
+    axes: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+
+    @property
+    def extent(self) -> float:
+        """Radius of a ball about ``position`` that holds every point a shadow ray ends at."""
+        u, v = (float(np.linalg.norm(a)) for a in self.axes)
+        return {"sphere": self.radius, "rect": u + v, "disk": max(u, v)}.get(self.kind, 0.0)
 
 
 @dataclass(frozen=True, eq=False)

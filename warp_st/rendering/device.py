@@ -14,6 +14,7 @@ import warp as wp
 from warp_st.accel.bvh import FlatBVH
 from warp_st.accel.bvh_wide import collapse, wide_boxes
 from warp_st.core.conventions import BOX_PAD_ULPS
+from warp_st.core.light_samples import area_samples
 from warp_st.core.scene import Light
 from warp_st.kernels import Kernels
 from warp_st.kernels.spectrum import spectral_basis_inverse
@@ -22,6 +23,8 @@ from warp_st.spacetime.extrude import SpacetimeMesh
 __all__ = ["ShadingTables", "StaticArrays", "make_geometry", "set_nodes", "outward", "make_shading"]
 
 _DEVICE = "cpu"
+#: Light.kind -> the shading kernel's light_kind (kernels/shade.py).
+_LIGHT_KIND = {"sphere": 0, "distant": 1, "rect": 2, "disk": 2}
 
 
 class ShadingTables:
@@ -149,7 +152,7 @@ def make_shading(
     s.body_velocity = static.body_velocity
     s.body_gamma = static.body_gamma
     s.body_decoupled = static.body_decoupled
-    kinds = np.array([0 if l.kind == "sphere" else 1 for l in lights], dtype=np.int32)
+    kinds = np.array([_LIGHT_KIND[l.kind] for l in lights], dtype=np.int32)
     pos = np.array([l.position for l in lights], dtype=np.float64).reshape(-1, 3) - origin[1:]
     dirs = np.array([l.direction for l in lights], dtype=np.float64).reshape(-1, 3)
     rad = np.array([l.radiance for l in lights], dtype=np.float64).reshape(-1, 3)
@@ -157,6 +160,15 @@ def make_shading(
     s.light_pos = wp.array(pos.astype(ns), dtype=k.vec3, device=_DEVICE)
     s.light_dir = wp.array(dirs.astype(ns), dtype=k.vec3, device=_DEVICE)
     s.light_radiance = wp.array(rad.astype(ns), dtype=k.vec3, device=_DEVICE)
+    s.light_radius = wp.array(np.array([l.radius for l in lights], dtype=ns), dtype=k.scalar, device=_DEVICE)
+    samples = [area_samples(l) for l in lights]
+    counts = np.array([len(w) for _, w in samples], dtype=np.int32)
+    s.light_samples = wp.array(counts, dtype=wp.int32, device=_DEVICE)
+    points = np.concatenate([np.zeros((1, 3))] + [p - origin[1:] for p, _ in samples])  # one pad: never empty
+    weights = np.concatenate([np.zeros(1)] + [w for _, w in samples])
+    s.light_first = wp.array((1 + np.cumsum(counts) - counts).astype(np.int32), dtype=wp.int32, device=_DEVICE)
+    s.sample_pos = wp.array(points.astype(ns), dtype=k.vec3, device=_DEVICE)
+    s.sample_weight = wp.array(weights.astype(ns), dtype=k.scalar, device=_DEVICE)
     s.light_count = len(lights)
     s.background = k.vec3(*[float(x) for x in background])
     s.max_depth = int(max_depth)
