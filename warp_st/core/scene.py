@@ -93,6 +93,10 @@ class Surface:
         p_world = p_local @ M[:3, :3] + M[3, :3]); the renderer re-tessellates it
         for the resolution (``warp_st.spacetime.adaptive.adapt_sphere_tessellation``). None for
         every other surface (its triangles are exact).
+    quadric: for a UsdGeom.Cylinder, Cone or Capsule, the analytic shape its triangles
+        approximate: (kind "cylinder" / "cone" / "capsule", axis "X" / "Y" / "Z", radius,
+        height, world_from_local 4x4 as for ``sphere``); None otherwise. The rigid path
+        traces it exactly (``spacetime.rigid``).
     """
 
     prim_path: str
@@ -101,6 +105,7 @@ class Surface:
     material: Material = Material()
     normals: np.ndarray | None = None
     sphere: tuple[float, np.ndarray] | None = None
+    quadric: tuple | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -211,7 +211,21 @@ class GprimReader:
             material=self.material(prim),
             normals=normals,
             sphere=sphere,
+            quadric=self._quadric(prim, world_from_local),
         )
+
+    def _quadric(self, prim, world_from_local):
+        """A Cylinder, Cone or Capsule's analytic shape (``Surface.quadric``), else None."""
+        kind = str(prim.GetTypeName())
+        if kind not in ("Cylinder", "Cone", "Capsule"):
+            return None
+        w = self.where
+        radius = A.real(w, prim, "radius", 0.5 if kind == "Capsule" else 1.0, minimum=0.0)
+        height = A.real(w, prim, "height", 1.0 if kind == "Capsule" else 2.0, minimum=0.0)
+        if radius == 0.0 or (height == 0.0 and kind != "Capsule"):
+            return None
+        return (kind.lower(), A.token(w, prim, "axis", ("X", "Y", "Z"), "Z"), float(radius), float(height),
+                np.array(world_from_local, dtype=np.float64).reshape(4, 4))
 
     def check(self, prim) -> None:
         """What the prim and its ancestors author that is not honoured (once per prim)."""
