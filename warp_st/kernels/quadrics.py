@@ -90,6 +90,18 @@ def make_quadrics():
         return wp.vec3d(f64(0.0), f64(0.0), f64(-1.0))
 
     @wp.func
+    def capped(lo: f64, hi: f64, n_in: wp.vec3d, n_out: wp.vec3d, zlo: f64, zhi: f64, dz: f64):
+        """A side's interval [lo, hi] cut by the slab's [zlo, zhi]: where the slab bounds it,
+        the cap's normal."""
+        if zlo > lo:
+            lo = zlo
+            n_in = cap_normal(dz, 1)
+        if zhi < hi:
+            hi = zhi
+            n_out = cap_normal(dz, 0)
+        return lo, hi, n_in, n_out
+
+    @wp.func
     def ball(q0: wp.vec3d, qd: wp.vec3d, centre_z: f64, r: f64):
         """The ball of radius r about (0, 0, centre_z): (entry, exit, n_entry, n_exit)."""
         c = q0 - wp.vec3d(f64(0.0), f64(0.0), centre_z)
@@ -105,13 +117,7 @@ def make_quadrics():
         b = q0 + qd * hi
         n_in = wp.vec3d(a[0], a[1], f64(0.0))
         n_out = wp.vec3d(b[0], b[1], f64(0.0))
-        if zlo > lo:
-            lo = zlo
-            n_in = cap_normal(qd[2], 1)
-        if zhi < hi:
-            hi = zhi
-            n_out = cap_normal(qd[2], 0)
-        return lo, hi, n_in, n_out
+        return capped(lo, hi, n_in, n_out, zlo, zhi, qd[2])
 
     @wp.func
     def cone_side(q: wp.vec3d, k2: f64, h: f64) -> wp.vec3d:
@@ -140,13 +146,7 @@ def make_quadrics():
             hi = hi2
         n_in = cone_side(q0 + qd * lo, k2, h)
         n_out = cone_side(q0 + qd * hi, k2, h)
-        if zlo > lo:
-            lo = zlo
-            n_in = cap_normal(qd[2], 1)
-        if zhi < hi:
-            hi = zhi
-            n_out = cap_normal(qd[2], 0)
-        return lo, hi, n_in, n_out
+        return capped(lo, hi, n_in, n_out, zlo, zhi, qd[2])
 
     @wp.func
     def capsule(q0: wp.vec3d, qd: wp.vec3d, r: f64, h: f64):
