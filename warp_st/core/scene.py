@@ -15,8 +15,11 @@ from warp_st.core.conventions import LightSpeed, Precision
 __all__ = [
     "SceneError",
     "surface_triangles",
+    "WRAP_MODES",
+    "Texture",
     "Material",
     "Surface",
+    "surface_keep",
     "Body",
     "Light",
     "CameraState",
@@ -65,16 +68,52 @@ class Diagnostic:
         return str(SceneError.at(self.file, self.prim, self.attribute, self.message))
 
 
+#: Texture wrap modes the kernel knows, in its numbering (docs/spec.md §2, textures).
+WRAP_MODES = ("repeat", "clamp", "mirror", "black")
+
+
+@dataclass(frozen=True, eq=False)
+class Texture:
+    """One UsdUVTexture output feeding a material input (docs/spec.md §2, textures).
+
+    texels: (H, W, 4) float32, linear, ``scale`` and ``bias`` already applied; row 0 is
+        the top of the image (t = 1), column 0 its left (s = 0).
+    wrap: (wrapS, wrapT), each one of WRAP_MODES (``useMetadata`` already resolved).
+    border: the value outside [0, 1] under "black" wrap: black, scaled and biased (the bias).
+    channel: the output read: -1 for ``rgb``, 0..3 for ``r``, ``g``, ``b``, ``a``.
+    primvar, st_fallback: the UsdPrimvarReader_float2's ``varname`` and ``fallback``
+        (the st where the gprim has no such primvar).
+    """
+
+    file: str
+    texels: np.ndarray
+    wrap: tuple[str, str] = ("repeat", "repeat")
+    border: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    channel: int = -1
+    primvar: str = "st"
+    st_fallback: tuple[float, float] = (0.0, 0.0)
+
+
 @dataclass(frozen=True)
 class Material:
     """UsdPreviewSurface subset. Colours are linear RGB.
 
-    ``metallic`` is the weight of a perfect mirror (docs/spec.md §2).
+    ``metallic`` is the weight of a perfect mirror (docs/spec.md §2). A ``*_texture``
+    replaces the constant with a texture lookup at the hit's st (the constants then
+    only matter where no texture is bound).
     """
 
     diffuse: tuple[float, float, float] = (0.18, 0.18, 0.18)
     emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)
     metallic: float = 0.0
+    diffuse_texture: Texture | None = None
+    emissive_texture: Texture | None = None
+    metallic_texture: Texture | None = None
+
+    @property
+    def textures(self) -> tuple[Texture | None, Texture | None, Texture | None]:
+        """(diffuse, emissive, metallic) textures, None where the input is a constant."""
+        return (self.diffuse_texture, self.emissive_texture, self.metallic_texture)
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,6 +125,11 @@ class Surface:
     triangles: vertex indices into ``points``, shape (T, 3), int64.
     normals: optional per-point shading normals in world space, shape (P, 3),
         unit length (e.g. a tessellated sphere); None means flat shading.
+    st: texture coordinates at each triangle corner, shape (T, 3, 2), aligned with
+        ``triangles``; None when no material of the surface is textured.
+    subset_materials, triangle_material: per-face materials (GeomSubset bindings):
+        triangle i uses ``material`` where triangle_material[i] == 0, else
+        subset_materials[triangle_material[i] - 1]; None: ``material`` everywhere.
     sphere: for a UsdGeom.Sphere, the analytic shape the triangles approximate:
         (radius, world_from_local 4x4 float64 in USD's row-vector convention,
         p_world = p_local @ M[:3, :3] + M[3, :3]); the renderer re-tessellates it
@@ -99,6 +143,9 @@ class Surface:
     material: Material = Material()
     normals: np.ndarray | None = None
     sphere: tuple[float, np.ndarray] | None = None
+    st: np.ndarray | None = None
+    subset_materials: tuple[Material, ...] = ()
+    triangle_material: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -287,8 +334,12 @@ class Scene:
         return {key: repr(float(value)) for key, value in items.items() if value is not None}
 
 
+def surface_keep(surf) -> np.ndarray:
+    """(T,) bool: the surface's triangles that are not degenerate index triples."""
+    tris = np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3)
+    return (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
+
+
 def surface_triangles(surf) -> np.ndarray:
     """A surface's triangles as (T, 3) int64, without degenerate index triples (no surface)."""
-    tris = np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3)
-    keep = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
-    return tris[keep]
+    return np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3)[surface_keep(surf)]

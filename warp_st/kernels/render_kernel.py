@@ -12,6 +12,7 @@ from warp_st.kernels.layout import PRIMITIVES
 from warp_st.kernels.probe import make_probe
 from warp_st.kernels.shade import make_shade
 from warp_st.kernels.spectrum import make_spectrum
+from warp_st.kernels.texture import make_textures
 from warp_st.kernels.trace import make_trace
 from warp_st.kernels.trace_rigid import make_trace_rigid
 
@@ -61,6 +62,7 @@ def _make_render(scalar, k, trace, Geometry):
     FAR = 1.0e30
     Shading, self_eps, shading_normal, shade, reflect_null = make_shade(scalar, vec3, vec4, Geometry, trace, mat33)
     doppler_transform = make_spectrum(scalar, vec3, mat33)
+    _textures, surface_inputs = make_textures(scalar)
 
     @wp.struct
     class Camera:
@@ -204,11 +206,12 @@ def _make_render(scalar, k, trace, Geometry):
                 first_lam = lam
             tri = geo.prim_tri[prim]
             mat = shd.tri_material[tri]
-            metal = shd.mat_metallic[mat]
+            diffuse, emissive, metal = surface_inputs(shd.tex, prim, tri, lam, mat, shd.mat_diffuse[mat],
+                                                      shd.mat_emissive[mat], shd.mat_metallic[mat])
             normal = shading_normal(geo, shd, prim, lam, n)
             body = shd.tri_body[tri]
             if metal < scalar(1.0):
-                local = shade(geo, shd, finite, prim, path, event, normal)
+                local = shade(geo, shd, finite, prim, path, event, normal, diffuse, emissive)
                 ub = four_velocity(shd.body_velocity[body], shd.body_gamma[body], shd.body_decoupled[body])
                 body_term = ub[0]
                 if finite != 0:
@@ -237,7 +240,7 @@ def _make_render(scalar, k, trace, Geometry):
             if finite != 0:
                 nv = wp.dot(normal, v_mirror)
                 energy = energy * (scalar(1.0) + scalar(2.0) * (wp.dot(n, normal) + nv) * nv / (scalar(1.0) - nv * nv))
-            weight = wp.cw_mul(weight, shd.mat_diffuse[mat]) * metal
+            weight = wp.cw_mul(weight, diffuse) * metal
             o = event
             n = n_out
             skip = tri

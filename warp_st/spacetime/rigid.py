@@ -112,7 +112,8 @@ def rigid_shapes(scene: Scene) -> RigidShapes:
     frame_of = np.arange(n_bodies)  # the body whose frame a body's shape is held in
     groups: dict = {}
     rest_from_lab = np.tile(np.eye(3), (n_bodies, 1, 1))
-    tables = {k: [] for k in ("normals", "vidx", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material")}
+    tables = {k: [] for k in ("normals", "vidx", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material",
+                              "tri_st")}
     n_tri = n_vert = 0
     for i, (body, bt, key) in enumerate(zip(scene.bodies, found, keys)):
         tri_base[i], vert_base[i] = n_tri, n_vert
@@ -142,6 +143,7 @@ def rigid_shapes(scene: Scene) -> RigidShapes:
         tables["tri_size"].append(bt.tri_size)
         tables["tri_body"].append(np.full(len(bt.triangles), i, np.int32))
         tables["tri_material"].append(bt.tri_material)
+        tables["tri_st"].append(bt.tri_st)
         n_tri += len(bt.triangles)
         n_vert += len(bt.local)
     # Each body's queries start where the ray enters the rest box of its whole frame.
@@ -163,7 +165,7 @@ def rigid_shapes(scene: Scene) -> RigidShapes:
         tri_vidx=cat("vidx", (0, 3), np.int32), tri_normal=cat("tri_normal", (0, 3), np.float64),
         tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), np.float64),
         tri_body=cat("tri_body", (0,), np.int32), tri_material=cat("tri_material", (0,), np.int32),
-        materials=tuple(materials), bodies=tuple(scene.bodies),
+        materials=tuple(materials), bodies=tuple(scene.bodies), tri_st=cat("tri_st", (0, 3, 2), np.float64),
     )
 
 
