@@ -63,14 +63,14 @@ class TextureReader:
         if not path:
             what = asset.path if isinstance(asset, Sdf.AssetPath) and asset.path else "no file"
             self.notes.warn(prim, "inputs:file", f"{what!s} cannot be found; the texture's fallback "
-                            f"{tuple(fallback.tolist())} is used", "MissingTexture")
+                            f"{_shown(fallback)} is used", "MissingTexture")
             return fallback
         space = self._token(tex, "sourceColorSpace", ("raw", "sRGB", "auto"), "auto")
         try:
             image = self._image(path, space)
         except ImageError as exc:
             self.notes.warn(prim, "inputs:file", f"{asset.path} cannot be read ({exc}); the texture's fallback "
-                            f"{tuple(fallback.tolist())} is used", "MissingTexture")
+                            f"{_shown(fallback)} is used", "MissingTexture")
             return fallback
         wraps = []
         for axis, attr in enumerate(("wrapS", "wrapT")):
@@ -146,6 +146,11 @@ class TextureReader:
         except SceneError as exc:
             self.notes.value_error(exc, f"{default!r} is used")
             return default
+
+
+def _shown(values) -> tuple:
+    """Values as authored (float32 inputs shown to their 7 significant digits)."""
+    return tuple(float(f"{float(x):.7g}") for x in values)
 
 
 def _rgba(texels: np.ndarray) -> np.ndarray:
