@@ -98,6 +98,9 @@ class TextureReader:
         producers = inp.GetValueProducingAttributes() if inp else []
         if not (producers and UsdShade.Output.IsOutput(producers[0])):
             st = self._vector(tex, "st", 2, (0.0, 0.0))
+            if inp and inp.HasConnectedSource() is False and inp.GetAttr().HasAuthoredConnections():
+                self.notes.warn(tex.GetPrim(), "inputs:st", f"is connected to {inp.GetAttr().GetConnections()[0]}, "
+                                f"which does not exist; the constant st {tuple(st.tolist())} is used", "BadValue")
             return "", (float(st[0]), float(st[1]))
         reader = UsdShade.Shader(producers[0].GetPrim())
         reader_id = str(reader.GetShaderId() or "")
