@@ -22,6 +22,7 @@ __all__ = [
     "surface_keep",
     "Body",
     "Light",
+    "Dome",
     "CameraState",
     "RenderSettings",
     "RenderVar",
@@ -198,6 +199,22 @@ class Light:
 
 
 @dataclass(frozen=True, eq=False)
+class Dome:
+    """A DomeLight: the sky, at rest in the lab at infinity (docs/spec.md §3, the sky).
+
+    radiance: intensity * color * 2**exposure, linear RGB (the texels' multiplier).
+    texels: the latlong map, (H, W, 4) float32 linear, OpenEXR's orientation (row 0
+        latitude +pi/2, column 0 longitude +pi); None: a constant sky of ``radiance``.
+    local_from_lab: (3, 3) rotation taking a lab direction into the dome's own axes.
+    """
+
+    radiance: tuple[float, float, float]
+    texels: np.ndarray | None = None
+    local_from_lab: np.ndarray = field(default_factory=lambda: np.eye(3))
+    prim_path: str = ""
+
+
+@dataclass(frozen=True, eq=False)
 class CameraState:
     """The camera at one rendered frame.
 
@@ -307,6 +324,7 @@ class Scene:
     products: the settings' UsdRender products in ``products`` order (empty: none).
     diagnostics: what the reader did not honour (warnings) and chose (info), stage order.
     meters_per_unit, time_codes_per_second: the stage's metadata (None: not read).
+    dome: the sky (a DomeLight), None: the render settings' background.
     camera_state: ``camera_state(path, frame) -> CameraState`` evaluates a camera
         at a USD time code (the camera is the one thing that changes per frame).
     """
@@ -324,6 +342,7 @@ class Scene:
     diagnostics: tuple[Diagnostic, ...] = ()
     meters_per_unit: float | None = None
     time_codes_per_second: float | None = None
+    dome: Dome | None = None
 
     def body_paths(self) -> list[str]:
         return [b.prim_path for b in self.bodies]

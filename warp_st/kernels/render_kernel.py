@@ -10,6 +10,7 @@ import warp as wp
 
 from warp_st.kernels.layout import PRIMITIVES
 from warp_st.kernels.probe import make_probe
+from warp_st.kernels.sky import make_sky
 from warp_st.kernels.shade import make_shade
 from warp_st.kernels.spectrum import make_spectrum
 from warp_st.kernels.texture import make_textures
@@ -63,6 +64,7 @@ def _make_render(scalar, k, trace, Geometry):
     Shading, self_eps, shading_normal, shade, reflect_null = make_shade(scalar, vec3, vec4, Geometry, trace, mat33)
     doppler_transform = make_spectrum(scalar, vec3, mat33)
     _textures, surface_inputs = make_textures(scalar)
+    _sky, sky_radiance = make_sky(scalar)
 
     @wp.struct
     class Camera:
@@ -194,8 +196,14 @@ def _make_render(scalar, k, trace, Geometry):
             visits += vis
             overflow = wp.max(overflow, ovf)
             if prim < 0:
-                if depth > 0:
-                    bg = doppler_transform(shd.background, cam_term / energy, shd.basis_inv, shd.color_shift, shd.searchlight)
+                # The dome (at rest in the lab, D = cam_term / energy) is seen by every
+                # escaping ray; without one the background only after a mirror (the film
+                # composites it behind primary misses).
+                if depth > 0 or shd.sky.present != 0:
+                    bg = shd.background
+                    if shd.sky.present != 0:
+                        bg = sky_radiance(shd.sky, n)
+                    bg = doppler_transform(bg, cam_term / energy, shd.basis_inv, shd.color_shift, shd.searchlight)
                     color = color + wp.cw_mul(weight, bg)
                 break
             event = o + s * null_dir(n, finite)
@@ -317,12 +325,19 @@ def _make_render(scalar, k, trace, Geometry):
         if overflow != 0:
             film.overflow[0] = 1
         bg = shd.background
+        if shd.sky.present != 0:
+            bg = vec3(scalar(0.0))  # the sky is in the colour already
         film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
         if prim < 0:
             film.depth[pixel] = scalar(wp.inf)
             film.event_time[pixel] = scalar(wp.nan)
             film.proper_time[pixel] = scalar(wp.nan)
             film.doppler[pixel] = scalar(wp.nan)
+            if shd.sky.present != 0:  # the dome's D = (k.u_cam)/(k.u_lab), k = (1, -n)
+                uc0 = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
+                film.doppler[pixel] = uc0[0]
+                if cam.finite != 0:
+                    film.doppler[pixel] = uc0[0] + n[0] * uc0[1] + n[1] * uc0[2] + n[2] * uc0[3]
             film.object_id[pixel] = 0
             film.source_time[pixel] = scalar(wp.nan)
             film.bounces[pixel] = 0

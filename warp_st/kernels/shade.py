@@ -4,6 +4,7 @@ Pure Warp device code. Lights are at rest in the lab (docs/spec.md §3).
 """
 import warp as wp
 
+from warp_st.kernels.sky import make_sky
 from warp_st.kernels.texture import make_textures
 
 __all__ = ["make_shade"]
@@ -17,6 +18,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
     SELF_EPS = 1.0e-4 if wp.types.type_size_in_bytes(scalar) == 4 else 1.0e-9
     FAR = 1.0e30
     Textures, _inputs = make_textures(scalar)
+    Sky, _sky = make_sky(scalar)
 
     @wp.struct
     class Shading:
@@ -40,6 +42,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
         light_radiance: wp.array(dtype=vec3)
         light_count: int
         background: vec3
+        sky: Sky  # a DomeLight (kernels/sky.py); sky.present 0: the background is the sky
         max_depth: int
         basis_inv: mat33  # spectral basis for the Doppler colour shift (spectrum.py)
         color_shift: int

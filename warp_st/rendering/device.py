@@ -17,7 +17,7 @@ from warp_st.core.conventions import BOX_PAD_ULPS
 from warp_st.core.scene import Light
 from warp_st.kernels import Kernels
 from warp_st.kernels.spectrum import spectral_basis_inverse
-from warp_st.rendering.device_textures import tet_corners, texture_tables
+from warp_st.rendering.device_textures import sky_struct, tet_corners, texture_tables
 from warp_st.spacetime.extrude import SpacetimeMesh
 
 __all__ = ["ShadingTables", "StaticArrays", "make_geometry", "set_nodes", "outward", "make_shading"]
@@ -136,8 +136,10 @@ def make_shading(
     *,
     doppler_color: bool = False,
     searchlight: bool = False,
+    dome=None,
 ):
-    """Shading struct: materials, bodies and lights, positions recentred on ``origin``."""
+    """Shading struct: materials, bodies and lights, positions recentred on ``origin``;
+    ``dome``: the scene's sky (a ``Dome``) or None."""
     ns = static.np_scalar
     s = k.Shading()
     s.vert_normal = static.vert_normal
@@ -164,6 +166,7 @@ def make_shading(
     s.light_radiance = wp.array(rad.astype(ns), dtype=k.vec3, device=_DEVICE)
     s.light_count = len(lights)
     s.background = k.vec3(*[float(x) for x in background])
+    s.sky = sky_struct(k, dome)
     s.max_depth = int(max_depth)
     s.basis_inv = k.mat33(*spectral_basis_inverse().reshape(-1).tolist())
     s.color_shift = 1 if doppler_color else 0

@@ -11,9 +11,10 @@ import warp as wp
 
 from warp_st.core.scene import WRAP_MODES
 from warp_st.kernels import Kernels
+from warp_st.kernels.sky import make_sky
 from warp_st.kernels.texture import make_textures, pack_corners, pack_info
 
-__all__ = ["texture_tables", "tet_corners"]
+__all__ = ["texture_tables", "tet_corners", "sky_struct"]
 
 _DEVICE = "cpu"
 
@@ -69,3 +70,19 @@ def texture_tables(k: Kernels, tables, tets: np.ndarray | None = None):
     t.border = wp.array(np.array(border, ns).reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
     t.texel = wp.array(np.concatenate(texels) if texels else np.zeros((0, 4), ns), dtype=k.vec4, device=_DEVICE)
     return t
+
+
+def sky_struct(k: Kernels, dome):
+    """The ``Sky`` struct of a ``Dome`` (None: no sky, the background shows)."""
+    ns = np.float32 if k.scalar == wp.float32 else np.float64
+    Sky, _ = make_sky(k.scalar)
+    sky = Sky()
+    sky.present = 0 if dome is None else 1
+    sky.radiance = k.vec3(*(dome.radiance if dome is not None else (0.0, 0.0, 0.0)))
+    rot = np.eye(3) if dome is None else np.asarray(dome.local_from_lab, dtype=np.float64)
+    sky.local_from_lab = k.mat33(*rot.reshape(-1).tolist())
+    texels = None if dome is None else dome.texels
+    sky.height, sky.width = (0, 0) if texels is None else texels.shape[:2]
+    flat = np.zeros((0, 4), ns) if texels is None else np.asarray(texels, dtype=ns).reshape(-1, 4)
+    sky.texel = wp.array(flat, dtype=k.vec4, device=_DEVICE)
+    return sky

@@ -128,6 +128,8 @@ HONOURED = {
     **{kind: _GPRIM | names for kind, names in _SHAPE.items()},
     "SphereLight": _LIGHT,
     "DistantLight": _LIGHT,
+    # the sky (usd/dome.py); guideRadius only draws a guide
+    "DomeLight": _LIGHT | {"inputs:texture:file", "inputs:texture:format", "guideRadius"},
     # clippingRange / focusDistance / stereoRole change nothing a ray tracer without clipping,
     # depth of field or stereo would draw
     "Camera": _XFORMABLE | {"focalLength", "horizontalAperture", "verticalAperture", "horizontalApertureOffset",

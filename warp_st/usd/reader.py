@@ -43,6 +43,7 @@ from warp_st.usd import attributes as A
 from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
 from warp_st.usd.camera import CameraEvaluator, frame_bounds
 from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
+from warp_st.usd.dome import read_dome
 from warp_st.usd.geometry import GprimReader, is_hidden, world_transform
 from warp_st.usd.products import read_products
 from warp_st.usd.stage import open_stage, tf_message
@@ -84,6 +85,7 @@ class _StageReader:
         self.gprims = GprimReader(self.where, self.xf, self.notes)
         self.bodies: list[_BodyBuilder] = []
         self.lights: list[Light] = []
+        self.domes: list = []  # DomeLight prims: the first is the sky (usd/dome.py)
         self.cameras: list[str] = []
         self.settings_prims: list = []
         self._current = None
@@ -126,6 +128,7 @@ class _StageReader:
             diagnostics=self.notes.items(),
             meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(self.stage)),
             time_codes_per_second=float(self.stage.GetTimeCodesPerSecond()),
+            dome=read_dome(self.where, self.notes, self.domes, self._world),
         )
 
     def _closing_notes(self, cameras, framing) -> None:
@@ -224,9 +227,12 @@ class _StageReader:
     def _light(self, prim) -> None:
         """SphereLight: a point at its world position; DistantLight: from its local +Z (docs/spec.md §3)."""
         w = self.where
+        if prim.IsA(UsdLux.DomeLight):  # the sky (usd/dome.py)
+            self.gprims.check(prim)
+            self.domes.append(prim)
+            return
         if not (prim.IsA(UsdLux.SphereLight) or prim.IsA(UsdLux.DistantLight)):
-            why = ("environment lighting is not supported yet" if prim.IsA(UsdLux.DomeLight)
-                   else "only SphereLight and DistantLight are")
+            why = "only SphereLight and DistantLight are"
             self.notes.warn(prim, None, f"{prim.GetTypeName()} is not supported ({why}); ignored", "UnsupportedPrim")
             return
         self.gprims.check(prim)

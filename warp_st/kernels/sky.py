@@ -1,0 +1,48 @@
+"""The sky (a UsdLux DomeLight, docs/spec.md §3): radiance arriving from a lab direction.
+
+Pure Warp device code. The dome is at rest in the lab at infinity, so a ray that escapes
+shows the dome where it points in the lab; a moving camera's aberration comes from its
+boosted pixel directions alone. The latlong map follows OpenEXR: a local direction d has
+latitude asin(d_y) and longitude atan2(d_x, d_z); column u = (pi - lon) / 2 pi and row
+v = (pi/2 - lat) / pi of the image (row 0 at the top), nearest texel.
+"""
+import functools
+import math
+
+import warp as wp
+
+__all__ = ["make_sky"]
+
+
+@functools.lru_cache(maxsize=None)
+def make_sky(scalar):
+    vec3 = wp.types.vector(3, scalar)
+    vec4 = wp.types.vector(4, scalar)
+    mat33 = wp.types.matrix((3, 3), scalar)
+    PI = math.pi
+
+    @wp.struct
+    class Sky:
+        present: int  # 0: no dome (the background colour is the sky)
+        radiance: vec3  # intensity x color x 2^exposure
+        local_from_lab: mat33
+        width: int  # 0: a constant sky
+        height: int
+        texel: wp.array(dtype=vec4)  # the latlong map, rows from the top
+
+    @wp.func
+    def sky_radiance(sky: Sky, n: vec3) -> vec3:
+        """Radiance of the dome seen looking along the lab direction n."""
+        if sky.width == 0:
+            return sky.radiance
+        d = sky.local_from_lab * n
+        lat = wp.asin(wp.clamp(d[1], scalar(-1.0), scalar(1.0)))
+        lon = wp.atan2(d[0], d[2])
+        u = (scalar(PI) - lon) / scalar(2.0 * PI)
+        v = (scalar(0.5 * PI) - lat) / scalar(PI)
+        x = wp.clamp(int(wp.floor(u * scalar(sky.width))), 0, sky.width - 1)
+        y = wp.clamp(int(wp.floor(v * scalar(sky.height))), 0, sky.height - 1)
+        t = sky.texel[y * sky.width + x]
+        return wp.cw_mul(sky.radiance, vec3(t[0], t[1], t[2]))
+
+    return Sky, sky_radiance
