@@ -383,8 +383,8 @@ def PointInstancer "Swarm"
 
 
 def lights() -> Stage:
-    """Lights as assets author them: a dome, a rect light, a sphere light with a radius,
-    shaping and a filter, a distant light with an angle."""
+    """Lights as assets author them: a dome (the sky: tests/rendering/test_sky.py), a rect
+    light, a sphere light with a radius, shaping and a filter, a distant light with an angle."""
     return Stage("lit.usda", {"lit.usda": _stage(f'''{CAMERA}
 def Mesh "Floor"
 {{
@@ -412,8 +412,7 @@ def DistantLight "Sun"
 def Xform "Gobo"
 {{
 }}
-''')}, [("/Sky", None, "DomeLight is not supported (environment lighting is not supported yet); ignored"),
-        ("/Softbox", None, "RectLight is not supported (only SphereLight and DistantLight are); ignored"),
+''')}, [("/Softbox", None, "RectLight is not supported (only SphereLight and DistantLight are); ignored"),
         ("/Bulb", "inputs:radius", "the light is drawn as a point: its radius is not honoured; ignored"),
         ("/Bulb", "inputs:shaping:cone:angle", "light shaping is not supported; ignored"),
         ("/Bulb", "light:filters", "light filters are not supported; ignored"),
