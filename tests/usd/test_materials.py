@@ -12,12 +12,15 @@ Laws:
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import OpenImageIO as oiio
 import pytest
 
 import warp_st
 from analytic_scenes import lab_pixel_directions
+from corpus import unknown_types_and_subsets
 from warp_st.usd.images import read_image
 
 COLOURS = {"Red": (1, 0, 0), "Green": (0, 1, 0), "Blue": (0, 0, 1), "Yellow": (1, 1, 0), "Cyan": (0, 1, 1),
@@ -128,39 +131,21 @@ def test_binding_forms(tmp_path):
     assert not [d for d in scene.diagnostics if d.severity == "warning" and "binding" in (d.attribute or "")]
 
 
-SUBSETS = HEADER + looks() + '''
-def Camera "Cam"
-{
-    double3 xformOp:translate = (1, 0, 6)
-    uniform token[] xformOpOrder = ["xformOp:translate"]
-}
-def Mesh "Dice" (prepend apiSchemas = ["MaterialBindingAPI"])
-{
-    point3f[] points = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0), (3, -1, 0), (3, 1, 0)]
-    int[] faceVertexCounts = [4, 4]
-    int[] faceVertexIndices = [0, 1, 2, 3, 1, 4, 5, 2]
-    rel material:binding = </Looks/Red>
-    def GeomSubset "Right" (prepend apiSchemas = ["MaterialBindingAPI"])
-    {
-        uniform token elementType = "face"
-        uniform token familyName = "materialBind"
-        int[] indices = [1]
-        rel material:binding = </Looks/Blue>
-    }
-}
-'''
+def render_and_locate(path, w: int, h: int):
+    """(scene, image, where each pixel-centre ray meets the plane z = 0 (H, W, 3))."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # what the stage does not honour: asserted by each test
+        scene = warp_st.load(str(path))
+    img = warp_st.render(scene, frame=0, width=w, height=h)
+    cam = scene.camera_state(scene.default_camera, 0)
+    n = lab_pixel_directions(cam, w, h)
+    return scene, img, np.asarray(cam.position) + (-cam.position[2] / n[..., 2])[..., None] * n
 
 
 def test_geom_subset_faces_render_their_own_material(tmp_path):
-    path = tmp_path / "subsets.usda"
-    path.write_text(SUBSETS)
-    scene = warp_st.load(str(path))
-    assert not [d for d in scene.diagnostics if d.severity == "warning"]
-    w, h = 64, 48
-    img = warp_st.render(scene, frame=0, width=w, height=h)
-    cam = scene.camera_state("/Cam", 0)
-    n = lab_pixel_directions(cam, w, h)
-    x = np.asarray(cam.position) + (-cam.position[2] / n[..., 2])[..., None] * n  # where rays meet z = 0
+    """The corpus's stage (tests/usd/corpus.py), through its default camera."""
+    scene, img, x = render_and_locate(unknown_types_and_subsets().write(tmp_path), 64, 48)
+    assert [d.prim for d in scene.diagnostics if d.severity == "warning"] == ["/Glow"]  # its unknown type
     inside_y = np.abs(x[..., 1]) < 0.9
     left = inside_y & (x[..., 0] > -0.9) & (x[..., 0] < 0.9)  # face 0, a tenth of a unit from its edges
     right = inside_y & (x[..., 0] > 1.1) & (x[..., 0] < 2.9)  # face 1
@@ -234,13 +219,8 @@ def RenderSettings "Settings"
                                                                            look="Green")
     path = tmp_path / "channels.usda"
     path.write_text(text)
-    scene = warp_st.load(str(path))
+    scene, img, x = render_and_locate(path, 80, 40)
     assert not [d for d in scene.diagnostics if d.severity == "warning"]
-    w, h = 80, 40
-    img = warp_st.render(scene, frame=0, width=w, height=h)
-    cam = scene.camera_state("/Cam", 0)
-    n = lab_pixel_directions(cam, w, h)
-    x = np.asarray(cam.position) + (-cam.position[2] / n[..., 2])[..., None] * n
     rows = np.abs(x[..., 1]) < 0.9
 
     def region(lo, hi):
