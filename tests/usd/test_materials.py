@@ -20,7 +20,7 @@ import pytest
 
 import warp_st
 from analytic_scenes import lab_pixel_directions
-from corpus import unknown_types_and_subsets
+from corpus import _material, unknown_types_and_subsets
 from warp_st.usd.images import read_image
 
 COLOURS = {"Red": (1, 0, 0), "Green": (0, 1, 0), "Blue": (0, 0, 1), "Yellow": (1, 1, 0), "Cyan": (0, 1, 1),
@@ -31,21 +31,9 @@ HEADER = '#usda 1.0\n(\n    upAxis = "Y"\n)\n'
 
 def looks(extra: dict | None = None) -> str:
     """A Material per colour of COLOURS (a UsdPreviewSurface with that diffuseColor)."""
-    out = []
-    for name, rgb in COLOURS.items():
-        inputs = (extra or {}).get(name, f"color3f inputs:diffuseColor = {rgb}")
-        out.append(f'''
-    def Material "{name}"
-    {{
-        token outputs:surface.connect = </Looks/{name}/Surface.outputs:surface>
-        def Shader "Surface"
-        {{
-            uniform token info:id = "UsdPreviewSurface"
-            {inputs}
-            token outputs:surface
-        }}
-    }}''')
-    return 'def Scope "Looks"\n{' + "".join(out) + "\n}\n"
+    return 'def Scope "Looks"\n{' + "".join(
+        _material(name, (extra or {}).get(name, f"color3f inputs:diffuseColor = {rgb}"))
+        for name, rgb in COLOURS.items()) + "\n}\n"
 
 
 QUAD = '''point3f[] points = [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)]
