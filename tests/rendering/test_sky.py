@@ -179,3 +179,94 @@ def test_a_plane_mirror_shows_the_dome_in_the_reflected_direction(tmp_path, sky_
     assert mask.sum() > 100
     err = np.abs(img.rgba[..., :3][mask] - expected[mask]) / expected[mask]
     assert err.max() < 1e-5  # as above; the mirror's weight is diffuse 1 x metallic 1
+
+
+def lit_quads_stage(folder, texture: str | None) -> str:
+    """Five diffuse quads (albedo (0.8, 0.6, 0.4)) tilted about x by -60 .. 60 degrees
+    (normal (0, sin a, cos a)), in a dome of radiance 2 x (1, 0.5, 0.25) x 2, no other light."""
+    quads = "\n".join(f'''def Mesh "Q{i}" (prepend apiSchemas = ["MaterialBindingAPI"])
+{{
+    point3f[] points = [(-0.6, -0.6, 0), (0.6, -0.6, 0), (0.6, 0.6, 0), (-0.6, 0.6, 0)]
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    double3 xformOp:translate = ({(i - 2) * 1.6}, 0, 0)
+    float xformOp:rotateX = {-a}
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateX"]
+    rel material:binding = </Looks/Clay>
+}}''' for i, a in enumerate(TILTS))
+    file = f"asset inputs:texture:file = @{texture}@" if texture else ""
+    text = f'''#usda 1.0
+(
+    upAxis = "Y"
+)
+def Camera "Cam"
+{{
+    double3 xformOp:translate = (0, 0, 20)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}}
+def DomeLight "Sky"
+{{
+    {file}
+    float inputs:intensity = 2
+    color3f inputs:color = (1, 0.5, 0.25)
+    float inputs:exposure = 1
+}}
+def Scope "Looks"
+{{
+    def Material "Clay"
+    {{
+        token outputs:surface.connect = </Looks/Clay/Surface.outputs:surface>
+        def Shader "Surface"
+        {{
+            uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor = {ALBEDO}
+            token outputs:surface
+        }}
+    }}
+}}
+{quads}
+'''
+    path = folder / "lit.usda"
+    path.write_text(text)
+    return str(path)
+
+
+TILTS = (-60.0, -30.0, 0.0, 30.0, 60.0)
+ALBEDO = (0.8, 0.6, 0.4)
+
+
+def quad_colours(path: str) -> list:
+    """The colour of each quad (every pixel of a flat quad under a dome alone is the same)."""
+    scene = warp_st.load(path)
+    img = warp_st.render(scene, frame=0, width=160, height=48)
+    out = []
+    for i in range(len(TILTS)):
+        body = 1 + [b.prim_path for b in scene.bodies].index(f"/Q{i}")
+        pixels = img.rgba[img.object_id == body][:, :3]
+        assert len(pixels) > 30
+        assert np.ptp(pixels, axis=0).max() < 1e-6  # one colour per quad
+        out.append(pixels[0].astype(np.float64))
+    return out
+
+
+def test_a_constant_dome_lights_diffuse_surfaces_with_pi_times_its_radiance(tmp_path):
+    """E = pi L for any normal (the closed form), so each quad shows albedo x L."""
+    for colour in quad_colours(lit_quads_stage(tmp_path, None)):
+        want = np.array(ALBEDO) * RADIANCE
+        assert np.abs(colour - want).max() / want.max() < 1e-6  # float32 of exact products
+
+
+def test_a_hemisphere_dome_gives_the_closed_form_irradiance(tmp_path):
+    """A dome bright above the horizon (its upper texel rows 1, the lower 0) gives
+    E(n) = pi L (1 + cos theta) / 2, theta between the normal and +Y. The order-2 harmonic
+    projection is exact here (the step's non-constant part is odd, and the clamped
+    cosine's A_l vanishes for odd l >= 3); what is left is the projection's quadrature over
+    the map (4 x 4 samples per texel of 16 rows), below 1e-3 of the full sky's value."""
+    texels = np.zeros((16, 32, 3), np.float32)
+    texels[:8] = 1.0
+    write_exr(tmp_path / "half.exr", texels)
+    for tilt, colour in zip(TILTS, quad_colours(lit_quads_stage(tmp_path, "half.exr"))):
+        cos_theta = np.sin(np.radians(tilt))  # normal (0, sin a, cos a) towards the camera
+        scale = np.array(ALBEDO) * RADIANCE  # a full bright sky's value: the quadrature's scale
+        want = scale * (1.0 + cos_theta) / 2.0
+        assert (np.abs(colour - want) / scale).max() < 1e-3, (tilt, colour, want)

@@ -206,12 +206,15 @@ class Dome:
     texels: the latlong map, (H, W, 4) float32 linear, OpenEXR's orientation (row 0
         latitude +pi/2, column 0 longitude +pi); None: a constant sky of ``radiance``.
     local_from_lab: (3, 3) rotation taking a lab direction into the dome's own axes.
+    irradiance: (9, 3) spherical-harmonic coefficients of the diffuse irradiance it gives,
+        lab axes (``core.sky_irradiance``); None: it lights nothing.
     """
 
     radiance: tuple[float, float, float]
     texels: np.ndarray | None = None
     local_from_lab: np.ndarray = field(default_factory=lambda: np.eye(3))
     prim_path: str = ""
+    irradiance: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)

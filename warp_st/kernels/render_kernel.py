@@ -64,7 +64,7 @@ def _make_render(scalar, k, trace, Geometry):
     Shading, self_eps, shading_normal, shade, reflect_null = make_shade(scalar, vec3, vec4, Geometry, trace, mat33)
     doppler_transform = make_spectrum(scalar, vec3, mat33)
     _textures, surface_inputs = make_textures(scalar)
-    _sky, sky_radiance = make_sky(scalar)
+    _sky, sky_radiance, sky_irradiance = make_sky(scalar)
 
     @wp.struct
     class Camera:
@@ -220,6 +220,12 @@ def _make_render(scalar, k, trace, Geometry):
             body = shd.tri_body[tri]
             if metal < scalar(1.0):
                 local = shade(geo, shd, finite, prim, path, event, normal, diffuse, emissive)
+                if shd.sky.present != 0:  # the dome's diffuse light (no shadowing), instead of the unlit albedo
+                    lit = wp.cw_mul(diffuse, sky_irradiance(shd.sky, normal)) * scalar(1.0 / 3.141592653589793)
+                    if shd.light_count == 0:
+                        local = emissive + lit
+                    else:
+                        local = local + lit
                 ub = four_velocity(shd.body_velocity[body], shd.body_gamma[body], shd.body_decoupled[body])
                 body_term = ub[0]
                 if finite != 0:

@@ -18,7 +18,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
     SELF_EPS = 1.0e-4 if wp.types.type_size_in_bytes(scalar) == 4 else 1.0e-9
     FAR = 1.0e30
     Textures, _inputs = make_textures(scalar)
-    Sky, _sky = make_sky(scalar)
+    Sky, _radiance, _irradiance = make_sky(scalar)
 
     @wp.struct
     class Shading:

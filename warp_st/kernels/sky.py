@@ -4,7 +4,8 @@ Pure Warp device code. The dome is at rest in the lab at infinity, so a ray that
 shows the dome where it points in the lab; a moving camera's aberration comes from its
 boosted pixel directions alone. The latlong map follows OpenEXR: a local direction d has
 latitude asin(d_y) and longitude atan2(d_x, d_z); column u = (pi - lon) / 2 pi and row
-v = (pi/2 - lat) / pi of the image (row 0 at the top), nearest texel.
+v = (pi/2 - lat) / pi of the image (row 0 at the top), nearest texel. Surfaces get the
+dome's diffuse irradiance from nine spherical-harmonic coefficients (``sky_irradiance``).
 """
 import functools
 import math
@@ -29,6 +30,7 @@ def make_sky(scalar):
         width: int  # 0: a constant sky
         height: int
         texel: wp.array(dtype=vec4)  # the latlong map, rows from the top
+        irradiance: wp.array(dtype=vec3)  # 9 SH coefficients x A_l (core/sky_irradiance.py), lab axes
 
     @wp.func
     def sky_radiance(sky: Sky, n: vec3) -> vec3:
@@ -45,4 +47,19 @@ def make_sky(scalar):
         t = sky.texel[y * sky.width + x]
         return wp.cw_mul(sky.radiance, vec3(t[0], t[1], t[2]))
 
-    return Sky, sky_radiance
+    @wp.func
+    def sky_irradiance(sky: Sky, n: vec3) -> vec3:
+        """Diffuse irradiance E(n) of the dome on a surface of unit normal n (no shadowing):
+        sum_k C_k Y_k(n) over the nine real spherical harmonics of order <= 2."""
+        c = sky.irradiance
+        x = n[0]
+        y = n[1]
+        z = n[2]
+        e = c[0] * scalar(0.282094791773878)
+        e = e + (c[1] * y + c[2] * z + c[3] * x) * scalar(0.488602511902920)
+        e = e + (c[4] * (x * y) + c[5] * (y * z) + c[7] * (x * z)) * scalar(1.092548430592079)
+        e = e + c[6] * (scalar(0.315391565252520) * (scalar(3.0) * z * z - scalar(1.0)))
+        e = e + c[8] * (scalar(0.546274215296040) * (x * x - y * y))
+        return e
+
+    return Sky, sky_radiance, sky_irradiance

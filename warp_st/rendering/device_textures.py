@@ -75,7 +75,7 @@ def texture_tables(k: Kernels, tables, tets: np.ndarray | None = None):
 def sky_struct(k: Kernels, dome):
     """The ``Sky`` struct of a ``Dome`` (None: no sky, the background shows)."""
     ns = np.float32 if k.scalar == wp.float32 else np.float64
-    Sky, _ = make_sky(k.scalar)
+    Sky, _radiance, _irradiance = make_sky(k.scalar)
     sky = Sky()
     sky.present = 0 if dome is None else 1
     sky.radiance = k.vec3(*(dome.radiance if dome is not None else (0.0, 0.0, 0.0)))
@@ -85,4 +85,6 @@ def sky_struct(k: Kernels, dome):
     sky.height, sky.width = (0, 0) if texels is None else texels.shape[:2]
     flat = np.zeros((0, 4), ns) if texels is None else np.asarray(texels, dtype=ns).reshape(-1, 4)
     sky.texel = wp.array(flat, dtype=k.vec4, device=_DEVICE)
+    coef = np.zeros((9, 3)) if dome is None or dome.irradiance is None else np.asarray(dome.irradiance)
+    sky.irradiance = wp.array(coef.astype(ns), dtype=k.vec3, device=_DEVICE)
     return sky

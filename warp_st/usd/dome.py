@@ -6,8 +6,9 @@ OpenEXR's latitude-longitude convention, and the other layouts are not detected)
 ``color``, ``intensity``, ``exposure`` (radiance = intensity x color x 2^exposure, times the
 texels) and the prim's world rotation. The other formats (mirroredBall, angular,
 cubeMapVerticalCross) and an unreadable file are warnings: the sky is then the constant
-radiance. One dome is the sky; every further DomeLight is a warning. Surfaces are not lit
-by the dome (its irradiance is a later step of issue 19).
+radiance. One dome is the sky; every further DomeLight is a warning. Surfaces get the
+dome's diffuse irradiance, projected on spherical harmonics (``core.sky_irradiance``),
+without shadowing.
 """
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from pxr import Sdf, UsdLux
 
 from warp_st.core.limits import MAX_MAGNITUDE
 from warp_st.core.scene import Dome, SceneError
+from warp_st.core.sky_irradiance import irradiance_coefficients
 from warp_st.usd import attributes as A
 from warp_st.usd.attributes import Where
 from warp_st.usd.diagnostics import Notes
@@ -53,8 +55,9 @@ def read_dome(where: Where, notes: Notes, prims: list, world) -> Dome | None:
     u, _s, vt = np.linalg.svd(m)
     rotation = u @ vt  # the nearest rotation (polar decomposition) of the linear part
     local_from_lab = np.linalg.inv(rotation).T
-    return Dome(radiance=tuple(float(c) for c in rgb), texels=_texels(where, notes, prim),
-                local_from_lab=local_from_lab, prim_path=str(prim.GetPath()))
+    texels = _texels(where, notes, prim)
+    return Dome(radiance=tuple(float(c) for c in rgb), texels=texels, local_from_lab=local_from_lab,
+                prim_path=str(prim.GetPath()), irradiance=irradiance_coefficients(rgb, texels, local_from_lab))
 
 
 def _texels(where: Where, notes: Notes, prim) -> np.ndarray | None:
