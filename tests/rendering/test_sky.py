@@ -181,7 +181,7 @@ def test_a_plane_mirror_shows_the_dome_in_the_reflected_direction(tmp_path, sky_
     assert err.max() < 1e-5  # as above; the mirror's weight is diffuse 1 x metallic 1
 
 
-def lit_quads_stage(folder, texture: str | None) -> str:
+def lit_quads_stage(folder, texture: str | None, dome_rotate_x: float = 0.0) -> str:
     """Five diffuse quads (albedo (0.8, 0.6, 0.4)) tilted about x by -60 .. 60 degrees
     (normal (0, sin a, cos a)), in a dome of radiance 2 x (1, 0.5, 0.25) x 2, no other light."""
     quads = "\n".join(f'''def Mesh "Q{i}" (prepend apiSchemas = ["MaterialBindingAPI"])
@@ -210,6 +210,8 @@ def DomeLight "Sky"
     float inputs:intensity = 2
     color3f inputs:color = (1, 0.5, 0.25)
     float inputs:exposure = 1
+    float xformOp:rotateX = {dome_rotate_x}
+    uniform token[] xformOpOrder = ["xformOp:rotateX"]
 }}
 def Scope "Looks"
 {{
@@ -256,17 +258,22 @@ def test_a_constant_dome_lights_diffuse_surfaces_with_pi_times_its_radiance(tmp_
         assert np.abs(colour - want).max() / want.max() < 1e-6  # float32 of exact products
 
 
-def test_a_hemisphere_dome_gives_the_closed_form_irradiance(tmp_path):
-    """A dome bright above the horizon (its upper texel rows 1, the lower 0) gives
-    E(n) = pi L (1 + cos theta) / 2, theta between the normal and +Y. The order-2 harmonic
-    projection is exact here (the step's non-constant part is odd, and the clamped
-    cosine's A_l vanishes for odd l >= 3); what is left is the projection's quadrature over
-    the map (4 x 4 samples per texel of 16 rows), below 1e-3 of the full sky's value."""
+@pytest.mark.parametrize("dome_rotate_x", [0.0, 90.0])
+def test_a_hemisphere_dome_gives_the_closed_form_irradiance(tmp_path, dome_rotate_x):
+    """A dome bright above its horizon (its upper texel rows 1, the lower 0) gives
+    E(n) = pi L (1 + cos theta) / 2, theta between the normal and the dome's pole: +Y, or
+    +Z when the dome is turned by rotateX 90. The order-2 harmonic projection is exact
+    here (the step's non-constant part is odd, and the clamped cosine's A_l vanishes for
+    odd l >= 3); what is left is the projection's quadrature over the map (4 x 4 samples
+    per texel of 16 rows), below 1e-3 of the full sky's value."""
     texels = np.zeros((16, 32, 3), np.float32)
     texels[:8] = 1.0
     write_exr(tmp_path / "half.exr", texels)
-    for tilt, colour in zip(TILTS, quad_colours(lit_quads_stage(tmp_path, "half.exr"))):
-        cos_theta = np.sin(np.radians(tilt))  # normal (0, sin a, cos a) towards the camera
+    pole = np.array([0.0, 1.0, 0.0]) if dome_rotate_x == 0.0 else np.array([0.0, 0.0, 1.0])
+    colours = quad_colours(lit_quads_stage(tmp_path, "half.exr", dome_rotate_x))
+    for tilt, colour in zip(TILTS, colours):
+        a = np.radians(tilt)
+        cos_theta = np.array([0.0, np.sin(a), np.cos(a)]) @ pole  # the normal towards the camera
         scale = np.array(ALBEDO) * RADIANCE  # a full bright sky's value: the quadrature's scale
         want = scale * (1.0 + cos_theta) / 2.0
         assert (np.abs(colour - want) / scale).max() < 1e-3, (tilt, colour, want)
