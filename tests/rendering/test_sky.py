@@ -121,11 +121,13 @@ def sky_texels(tmp_path):
     return texels.astype(np.float64)
 
 
-def test_moving_observer_sees_the_aberrated_dome_and_its_doppler_factor(tmp_path, sky_texels):
+@pytest.mark.parametrize("path_kind", ["rigid", "prism64"])
+def test_moving_observer_sees_the_aberrated_dome_and_its_doppler_factor(tmp_path, sky_texels, path_kind):
     path = sky_stage(tmp_path)
     scene = warp_st.load(path)
     assert scene.dome is not None and not [d for d in scene.diagnostics if d.prim == "/Sky"]
-    img = warp_st.render(scene, frame=0, width=W, height=H)
+    kw = {} if path_kind == "rigid" else {"primitive": "prism", "precision": "float64"}
+    img = warp_st.render(scene, frame=0, width=W, height=H, **kw)
     cam = scene.camera_state("/Cam", 0)
     n = lab_pixel_directions(cam, W, H)  # lorentz.aberrate of the rest-frame pixel directions
     expected, away = dome_oracle(path, n, sky_texels)
@@ -237,10 +239,10 @@ TILTS = (-60.0, -30.0, 0.0, 30.0, 60.0)
 ALBEDO = (0.8, 0.6, 0.4)
 
 
-def quad_colours(path: str) -> list:
+def quad_colours(path: str, **kw) -> list:
     """The colour of each quad (every pixel of a flat quad under a dome alone is the same)."""
     scene = warp_st.load(path)
-    img = warp_st.render(scene, frame=0, width=160, height=48)
+    img = warp_st.render(scene, frame=0, width=160, height=48, **kw)
     out = []
     for i in range(len(TILTS)):
         body = 1 + [b.prim_path for b in scene.bodies].index(f"/Q{i}")
@@ -251,9 +253,11 @@ def quad_colours(path: str) -> list:
     return out
 
 
-def test_a_constant_dome_lights_diffuse_surfaces_with_pi_times_its_radiance(tmp_path):
+@pytest.mark.parametrize("path_kind", ["rigid", "prism64"])
+def test_a_constant_dome_lights_diffuse_surfaces_with_pi_times_its_radiance(tmp_path, path_kind):
     """E = pi L for any normal (the closed form), so each quad shows albedo x L."""
-    for colour in quad_colours(lit_quads_stage(tmp_path, None)):
+    kw = {} if path_kind == "rigid" else {"primitive": "prism", "precision": "float64"}
+    for colour in quad_colours(lit_quads_stage(tmp_path, None), **kw):
         want = np.array(ALBEDO) * RADIANCE
         assert np.abs(colour - want).max() / want.max() < 1e-6  # float32 of exact products
 

@@ -61,6 +61,7 @@ class Kernels:
 def _make_render(scalar, k, trace, Geometry):
     vec3, vec4, mat33 = k.vec3, k.vec4, k.mat33
     FAR = 1.0e30
+    INV_PI = 0.3183098861837907  # 1/pi (a cast of an expression would be evaluated in float32)
     Shading, self_eps, shading_normal, shade, reflect_null = make_shade(scalar, vec3, vec4, Geometry, trace, mat33)
     doppler_transform = make_spectrum(scalar, vec3, mat33)
     _textures, surface_inputs = make_textures(scalar)
@@ -221,7 +222,7 @@ def _make_render(scalar, k, trace, Geometry):
             if metal < scalar(1.0):
                 local = shade(geo, shd, finite, prim, path, event, normal, diffuse, emissive)
                 if shd.sky.present != 0:  # the dome's diffuse light (no shadowing), instead of the unlit albedo
-                    lit = wp.cw_mul(diffuse, sky_irradiance(shd.sky, normal)) * scalar(1.0 / 3.141592653589793)
+                    lit = wp.cw_mul(diffuse, sky_irradiance(shd.sky, normal)) * scalar(INV_PI)
                     if shd.light_count == 0:
                         local = emissive + lit
                     else:

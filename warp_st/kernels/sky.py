@@ -20,7 +20,8 @@ def make_sky(scalar):
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
     mat33 = wp.types.matrix((3, 3), scalar)
-    PI = math.pi
+    # Constants folded here: an expression inside a scalar cast is evaluated in float32.
+    PI, TWO_PI, HALF_PI = math.pi, 2.0 * math.pi, 0.5 * math.pi
 
     @wp.struct
     class Sky:
@@ -40,8 +41,8 @@ def make_sky(scalar):
         d = sky.local_from_lab * n
         lat = wp.asin(wp.clamp(d[1], scalar(-1.0), scalar(1.0)))
         lon = wp.atan2(d[0], d[2])
-        u = (scalar(PI) - lon) / scalar(2.0 * PI)
-        v = (scalar(0.5 * PI) - lat) / scalar(PI)
+        u = (scalar(PI) - lon) / scalar(TWO_PI)
+        v = (scalar(HALF_PI) - lat) / scalar(PI)
         x = wp.clamp(int(wp.floor(u * scalar(sky.width))), 0, sky.width - 1)
         y = wp.clamp(int(wp.floor(v * scalar(sky.height))), 0, sky.height - 1)
         t = sky.texel[y * sky.width + x]
