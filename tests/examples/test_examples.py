@@ -29,3 +29,19 @@ def test_terrell_globe_shows_its_meridians_turned_by_asin_beta(capsys, tmp_path)
     assert abs(seen[0] - 0.0) < 2.1
     assert abs(seen[1] + math.degrees(math.asin(0.9))) < 2.1
     assert (tmp_path / "terrell_globe.png").exists()
+
+
+def test_starbow_example_flies_through_the_dome(capsys, tmp_path):
+    """The starfield example (a DomeLight sky): the largest Doppler factor in view is the
+    head-on sqrt((1 + beta) / (1 - beta)), seen at the centre pixel of an odd-sized image
+    looking along the flight (float32: 1e-5 relative)."""
+    import math
+
+    example = load_example("starbow.py")
+    argv = ["--betas", "0.5", "0.99", "--out", str(tmp_path), "--width", "49", "--height", "49", "--samples", "1"]
+    assert example.main(argv) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("beta ")]
+    for beta, line in zip((0.5, 0.99), rows):
+        top = float(line.rsplit(" to ", 1)[1])
+        assert abs(top / math.sqrt((1 + beta) / (1 - beta)) - 1.0) < 1e-2  # printed to 2 decimals
+    assert (tmp_path / "starbow.png").exists()
