@@ -276,3 +276,27 @@ def test_an_unreadable_texture_warns_and_uses_its_fallback(tmp_path):
     img = warp_st.render(scene, frame=0, width=W, height=H)
     _ix, _iy, mask = interior_texels(*oracle_st(scene, 0.0))
     assert mask.sum() > 500 and np.abs(img.rgba[..., :3][mask]).max() == 0.0
+
+
+def test_the_memory_budget_counts_the_textures(tmp_path):
+    """A render's memory estimate holds each texel array twice (the host's float32 copy and
+    the kernel's atlas): a limit between the untextured and the textured estimate refuses
+    the textured render, naming the textures' share (bad input, before any allocation)."""
+    import dataclasses
+
+    from warp_st.core.scene import SceneError
+    from warp_st.rendering.budget import check_resources
+    from warp_st.rendering.renderer import Renderer
+    from warp_st.spacetime.visibility import visibility_windows
+
+    big = np.random.default_rng(5).integers(0, 256, (256, 256, 3), dtype=np.uint8)
+    write_png(tmp_path / "grid.png", big)
+    scene = warp_st.load(textured_quad_stage(tmp_path, 0.0))
+    plain = dataclasses.replace(scene, bodies=tuple(
+        dataclasses.replace(b, surfaces=tuple(dataclasses.replace(s, material=dataclasses.replace(
+            s.material, diffuse_texture=None)) for s in b.surfaces)) for b in scene.bodies))
+    windows = visibility_windows(scene, [scene.camera_state("/Cam", 0)], infinite=False, max_depth=4)
+    sizes = [check_resources(s, windows, width=W, height=H, max_depth=4, rigid=True) for s in (plain, scene)]
+    assert sizes[1] - sizes[0] == 2 * 256 * 256 * 4 * 4  # RGBA float32, twice
+    with pytest.raises(SceneError, match="of textures"):
+        Renderer(scene, frames=[0.0], width=W, height=H, max_memory=sum(sizes) // 2)
