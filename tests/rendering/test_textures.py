@@ -59,7 +59,7 @@ def _st_values(lo: float, hi: float) -> dict:
 
 def textured_quad_stage(folder, beta: float, *, image: str = "grid.png", space: str = "raw",
                         wrap: str = "repeat", st_range: tuple[float, float] = (0.0, 1.0),
-                        interpolation: str = "vertex", extra: str = "") -> str:
+                        interpolation: str = "vertex", extra: str = "", transform: str = "") -> str:
     """A camera at rest at the origin (time = time code) and a 2 x 2 quad of pivot o at
     z = Z moving with beta along +x, placed so that the camera sees it near the centre at
     frame 0 (its pivot passes x = 0 at t = Z, about when the light it sends now left it).
@@ -96,9 +96,16 @@ def Scope "Looks"
             token inputs:sourceColorSpace = "{space}"
             token inputs:wrapS = "{wrap}"
             token inputs:wrapT = "{wrap}"
-            float2 inputs:st.connect = </Looks/Grid/Reader.outputs:result>
+            float2 inputs:st.connect = </Looks/Grid/{"Move" if transform else "Reader"}.outputs:result>
             {extra}
             float3 outputs:rgb
+        }}
+        def Shader "Move"
+        {{
+            uniform token info:id = "UsdTransform2d"
+            float2 inputs:in.connect = </Looks/Grid/Reader.outputs:result>
+            {transform}
+            float2 outputs:result
         }}
         def Shader "Reader"
         {{
@@ -300,3 +307,21 @@ def test_the_memory_budget_counts_the_textures(tmp_path):
     assert sizes[1] - sizes[0] == 2 * 256 * 256 * 4 * 4  # RGBA float32, twice
     with pytest.raises(SceneError, match="of textures"):
         Renderer(scene, frames=[0.0], width=W, height=H, max_memory=sum(sizes) // 2)
+
+
+def test_usd_transform2d_moves_the_texture(tmp_path):
+    """A UsdTransform2d between the primvar reader and the texture: st' = translation +
+    R(rotation, counter-clockwise) (scale * st), as the UsdPreviewSurface spec orders them."""
+    texels = random_texture(tmp_path)
+    move = ("float2 inputs:scale = (2, 0.5)\n            float inputs:rotation = 30\n"
+            "            float2 inputs:translation = (0.25, 0.1)")
+    scene = warp_st.load(textured_quad_stage(tmp_path, 0.0, transform=move))
+    assert not [d for d in scene.diagnostics if d.prim and d.prim.startswith("/Looks")]
+    img = warp_st.render(scene, frame=0, width=W, height=H)
+    st, hit = oracle_st(scene, 0.0)
+    c, s = np.cos(np.radians(30.0)), np.sin(np.radians(30.0))
+    moved = (st * [2.0, 0.5]) @ np.array([[c, -s], [s, c]]).T + [0.25, 0.1]
+    ix, iy, mask = interior_texels(moved, hit, within=False)
+    assert mask.sum() > 500
+    err = np.abs(img.rgba[..., :3][mask] - texels[np.mod(iy, TEX_H)[mask], np.mod(ix, TEX_W)[mask]] / 255.0).max()
+    assert err <= 1.0 / 255.0  # as in test_texels_ride_on_the_quad (repeat wrap)

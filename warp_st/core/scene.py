@@ -84,6 +84,8 @@ class Texture:
     channel: the output read: -1 for ``rgb``, 0..3 for ``r``, ``g``, ``b``, ``a``.
     primvar, st_fallback: the UsdPrimvarReader_float2's ``varname`` and ``fallback``
         (the st where the gprim has no such primvar).
+    st_transform: (2, 3) affine map of st (UsdTransform2d nodes between the reader and
+        the texture), None for none.
     """
 
     file: str
@@ -93,6 +95,7 @@ class Texture:
     channel: int = -1
     primvar: str = "st"
     st_fallback: tuple[float, float] = (0.0, 0.0)
+    st_transform: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -124,6 +124,9 @@ class MaterialReader:
             self.notes.warn(shader.GetPrim(), "inputs", "its textures read different st primvars "
                             f"({', '.join(sorted({repr(t.primvar) for t in textures}))}); one st per surface is "
                             f"supported: {textures[0].primvar!r} is used for all", "NotHonoured")
+        elif len({None if t.st_transform is None else t.st_transform.tobytes() for t in textures}) > 1:
+            self.notes.warn(shader.GetPrim(), "inputs", "its textures transform st differently (UsdTransform2d); "
+                            "one st per surface is supported: the first texture's is used for all", "NotHonoured")
         material_out = Material(
             diffuse=tuple(diffuse), emissive=tuple(emissive), metallic=float(np.clip(metallic[0], 0.0, 1.0)),
             diffuse_texture=diffuse_tex, emissive_texture=emissive_tex, metallic_texture=metallic_tex,

@@ -5,10 +5,11 @@ UsdShade's own ``GetValueProducingAttributes``, so material interface inputs are
 through) becomes a texture: its ``file`` read through OpenImageIO (``images.py``) in
 its ``sourceColorSpace``, ``scale`` and ``bias`` applied to the texels, ``wrapS`` /
 ``wrapT`` (``useMetadata``: the file's wrap modes, else repeat) and the output channel.
-Its ``st`` comes from a ``UsdPrimvarReader_float2`` (``varname``, ``fallback``); an
-unconnected ``st`` is a constant. A missing or unreadable file is a warning and the
-texture's ``fallback`` is the input's value. What is not honoured (a UsdTransform2d on
-st, other shaders in between) is a warning naming the prim and the input.
+Its ``st`` comes from a ``UsdPrimvarReader_float2`` (``varname``, ``fallback``), through
+any ``UsdTransform2d`` nodes (applied to the st on the host); an unconnected ``st`` is a
+constant. A missing or unreadable file is a warning and the texture's ``fallback`` is the
+input's value. What is not honoured (other shaders in between) is a warning naming the
+prim and the input.
 """
 from __future__ import annotations
 
@@ -81,10 +82,10 @@ class TextureReader:
         scale = self._vector(tex, "scale", 4, (1.0, 1.0, 1.0, 1.0))
         bias = self._vector(tex, "bias", 4, (0.0, 0.0, 0.0, 0.0))
         texels = _rgba(image.texels) * scale.astype(np.float32) + bias.astype(np.float32)
-        primvar, st_fallback = self._st(tex)
+        primvar, st_fallback, transform = self._st(tex)
         return Texture(file=path, texels=texels.astype(np.float32), wrap=(wraps[0], wraps[1]),
                        border=tuple(float(b) for b in bias), channel=_CHANNELS[name], primvar=primvar,
-                       st_fallback=st_fallback)
+                       st_fallback=st_fallback, st_transform=transform)
 
     def _image(self, path: str, space: str):
         key = (path, space)
@@ -92,26 +93,47 @@ class TextureReader:
             self._images[key] = read_image(path, space)
         return self._images[key]
 
-    def _st(self, tex) -> tuple[str, tuple[float, float]]:
-        """(primvar name, fallback st) of the texture's st input; primvar "" = a constant."""
-        inp = tex.GetInput("st")
+    def _st(self, shader, name: str = "st", depth: int = 0):
+        """(primvar name, fallback st, 2 x 3 affine or None) of the shader's st input:
+        through UsdTransform2d nodes (scale, then rotation in degrees counter-clockwise,
+        then translation; composed) to a UsdPrimvarReader_float2; primvar "" = a constant."""
+        inp = shader.GetInput(name)
         producers = inp.GetValueProducingAttributes() if inp else []
         if not (producers and UsdShade.Output.IsOutput(producers[0])):
-            st = self._vector(tex, "st", 2, (0.0, 0.0))
+            st = self._vector(shader, name, 2, (0.0, 0.0))
             if inp and inp.HasConnectedSource() is False and inp.GetAttr().HasAuthoredConnections():
-                self.notes.warn(tex.GetPrim(), "inputs:st", f"is connected to {inp.GetAttr().GetConnections()[0]}, "
-                                f"which does not exist; the constant st {tuple(st.tolist())} is used", "BadValue")
-            return "", (float(st[0]), float(st[1]))
-        reader = UsdShade.Shader(producers[0].GetPrim())
-        reader_id = str(reader.GetShaderId() or "")
-        if reader_id != "UsdPrimvarReader_float2":
-            self.notes.warn(tex.GetPrim(), "inputs:st", f"is connected to {reader.GetPath()} "
-                            f"({reader_id or 'no shader id'}), which is not evaluated (only UsdPrimvarReader_float2 "
-                            "is); the primvar 'st' is used", "NotHonoured")
-            return "st", (0.0, 0.0)
-        name = self._value(reader, "varname", "st")
-        fallback = self._vector(reader, "fallback", 2, (0.0, 0.0))
-        return str(name or "st"), (float(fallback[0]), float(fallback[1]))
+                self.notes.warn(shader.GetPrim(), f"inputs:{name}", f"is connected to "
+                                f"{inp.GetAttr().GetConnections()[0]}, which does not exist; the constant st "
+                                f"{tuple(st.tolist())} is used", "BadValue")
+            return "", (float(st[0]), float(st[1])), None
+        source = UsdShade.Shader(producers[0].GetPrim())
+        source_id = str(source.GetShaderId() or "")
+        if source_id == "UsdTransform2d" and depth < 8:
+            primvar, fallback, inner = self._st(source, "in", depth + 1)
+            outer = self._transform2d(source)
+            return primvar, fallback, outer if inner is None else _compose(outer, inner)
+        if source_id != "UsdPrimvarReader_float2":
+            self.notes.warn(shader.GetPrim(), f"inputs:{name}", f"is connected to {source.GetPath()} "
+                            f"({source_id or 'no shader id'}), which is not evaluated (only UsdPrimvarReader_float2 "
+                            "and UsdTransform2d are); the primvar 'st' is used", "NotHonoured")
+            return "st", (0.0, 0.0), None
+        varname = self._value(source, "varname", "st")
+        fallback = self._vector(source, "fallback", 2, (0.0, 0.0))
+        return str(varname or "st"), (float(fallback[0]), float(fallback[1])), None
+
+    def _transform2d(self, node) -> np.ndarray:
+        scale = self._vector(node, "scale", 2, (1.0, 1.0))
+        translation = self._vector(node, "translation", 2, (0.0, 0.0))
+        attr = self._attr(node, "rotation")
+        angle = 0.0
+        if attr is not None:
+            try:
+                angle = A.real(self.where, attr.GetPrim(), attr.GetName(), 0.0)
+            except SceneError as exc:
+                self.notes.value_error(exc, "no rotation is used")
+        c, s_ = np.cos(np.radians(angle)), np.sin(np.radians(angle))
+        linear = np.array([[c, -s_], [s_, c]]) @ np.diag(scale)
+        return np.column_stack([linear, translation])
 
     # -- inputs, through connections to interface inputs -------------------------------
     def _attr(self, shader, name: str):
@@ -151,6 +173,11 @@ class TextureReader:
             return default
 
 
+def _compose(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """The 2 x 3 affine ``outer`` after ``inner``."""
+    return np.column_stack([outer[:, :2] @ inner[:, :2], outer[:, :2] @ inner[:, 2] + outer[:, 2]])
+
+
 def _shown(values) -> tuple:
     """Values as authored (float32 inputs shown to their 7 significant digits)."""
     return tuple(float(f"{float(x):.7g}") for x in values)
@@ -170,6 +197,17 @@ def _rgba(texels: np.ndarray) -> np.ndarray:
 
 
 def corner_st(where: Where, notes: Notes, prim, texture: Texture, n_tri: int, topology) -> np.ndarray:
+    """st at every triangle corner, (n_tri, 3, 2) (see ``_corner_st``), through the
+    texture's UsdTransform2d chain (affine: applying it at the corners is applying it at
+    every hit)."""
+    st = _corner_st(where, notes, prim, texture, n_tri, topology)
+    if texture.st_transform is None:
+        return st
+    m = np.asarray(texture.st_transform, dtype=np.float64)
+    return st @ m[:, :2].T + m[:, 2]
+
+
+def _corner_st(where: Where, notes: Notes, prim, texture: Texture, n_tri: int, topology) -> np.ndarray:
     """st at every triangle corner, (n_tri, 3, 2), for the gprim ``prim``.
 
     topology: (corners, faces, face_vertex_indices, point count, face count) of a Mesh's
