@@ -1,8 +1,10 @@
-"""NumPy -> Warp for the materials' textures (``kernels/texture.py``): one flat atlas.
+"""NumPy -> Warp for the materials' textures (``kernels/texture.py``), one flat atlas, and
+for the sky's map (``kernels/sky.py``).
 
 Each distinct texel array is stored once; each texture (a UsdUVTexture output) is a row of
 ``info`` (first texel, width, height, wraps and channel) and ``border``. Untextured
-scenes upload empty tables (the kernel never reads them).
+scenes upload empty tables (the kernel never reads them); a scene without a DomeLight an
+empty sky.
 """
 from __future__ import annotations
 

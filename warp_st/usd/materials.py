@@ -151,7 +151,7 @@ class MaterialReader:
         if producers and UsdShade.Output.IsOutput(producers[0]):
             source = UsdShade.Shader(producers[0].GetPrim())
             if source and source.GetShaderId() == "UsdUVTexture":
-                found = self._texture(shader, inp, producers[0], size)
+                found = self._texture(producers[0], size)
                 if isinstance(found, Texture):
                     return [float(x) for x in fallback], found
                 return found, None

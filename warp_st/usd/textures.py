@@ -29,8 +29,8 @@ _WRAP_TOKENS = WRAP_MODES + ("useMetadata",)
 
 
 class TextureReader:
-    """``reader(surface_shader, input, texture_output) -> Texture | values`` (the
-    fallback's values when the texture cannot be used); warnings go to ``notes``."""
+    """``reader(texture_output, size) -> Texture | values`` (the fallback's ``size``
+    values when the texture cannot be used); warnings go to ``notes``."""
 
     def __init__(self, where: Where, notes: Notes):
         self.where = where
@@ -38,10 +38,10 @@ class TextureReader:
         self._images: dict[tuple[str, str], object] = {}
         self._textures: dict[tuple[str, str], Texture | np.ndarray] = {}
 
-    def __call__(self, shader, inp, output, size: int):
+    def __call__(self, output, size: int):
         key = (str(output.GetPrim().GetPath()), output.GetBaseName())
         if key not in self._textures:
-            self._textures[key] = self._read(shader, inp, output)
+            self._textures[key] = self._read(output)
         found = self._textures[key]
         if isinstance(found, Texture):
             return found
@@ -50,7 +50,7 @@ class TextureReader:
         return [float(x) for x in (values if size == 3 else values[:1])]
 
     # -- one UsdUVTexture ------------------------------------------------------------
-    def _read(self, shader, inp, output):
+    def _read(self, output):
         tex = UsdShade.Shader(output.GetPrim())
         prim = tex.GetPrim()
         fallback = self._vector(tex, "fallback", 4, (0.0, 0.0, 0.0, 1.0))
