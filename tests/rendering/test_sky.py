@@ -281,3 +281,47 @@ def test_a_hemisphere_dome_gives_the_closed_form_irradiance(tmp_path, dome_rotat
         scale = np.array(ALBEDO) * RADIANCE  # a full bright sky's value: the quadrature's scale
         want = scale * (1.0 + cos_theta) / 2.0
         assert (np.abs(colour - want) / scale).max() < 1e-3, (tilt, colour, want)
+
+
+def test_what_the_dome_cannot_use_is_a_warning_and_the_sky_is_its_constant(tmp_path):
+    """An unsupported map format, a missing map and a second DomeLight: one warning each
+    (in the stage's one list of diagnostics), and the sky is the first dome's constant
+    radiance, intensity x color x 2^exposure."""
+    (tmp_path / "ball.exr").write_bytes(b"")
+    (tmp_path / "d.usda").write_text('''#usda 1.0
+def Camera "Cam"
+{
+}
+def DomeLight "Sky"
+{
+    asset inputs:texture:file = @ball.exr@
+    token inputs:texture:format = "mirroredBall"
+    color3f inputs:color = (0.5, 0.25, 1)
+    float inputs:exposure = -1
+}
+def DomeLight "Sky2"
+{
+    asset inputs:texture:file = @nothere.exr@
+}
+def DomeLight "Sky3"
+{
+}
+def Mesh "Behind"
+{
+    point3f[] points = [(-1, -1, 50), (1, -1, 50), (1, 1, 50)]
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+}
+''')
+    with pytest.warns(UserWarning):
+        scene = warp_st.load(str(tmp_path / "d.usda"))
+    got = sorted((d.prim, d.attribute, d.message) for d in scene.diagnostics if d.prim and d.prim.startswith("/Sky"))
+    constant = "the sky is its constant radiance (color x intensity x 2^exposure)"
+    assert got == [
+        ("/Sky", "inputs:texture:format", f"'mirroredBall' maps are not supported (latlong and automatic are); "
+                                          f"{constant}"),
+        ("/Sky2", None, "only one DomeLight is the sky (/Sky); this one is ignored"),
+        ("/Sky3", None, "only one DomeLight is the sky (/Sky); this one is ignored"),
+    ]
+    img = warp_st.render(scene, frame=0, width=8, height=6)
+    assert np.abs(img.rgba[..., :3] - np.array([0.25, 0.125, 0.5])).max() < 1e-7  # float32 of exact values

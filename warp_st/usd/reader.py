@@ -96,6 +96,7 @@ class _StageReader:
         self.notes.count_samples = samples_listable(self.stage)
         composition(self.notes, self.stage)
         self._traverse()
+        dome = read_dome(self.where, self.notes, self.domes, self._world)  # the sky (usd/dome.py)
         settings_prim = self._settings_prim()
         settings = self._render_settings(settings_prim)
         products = () if settings_prim is None else read_products(self.where, self.stage, settings_prim,
@@ -128,7 +129,7 @@ class _StageReader:
             diagnostics=self.notes.items(),
             meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(self.stage)),
             time_codes_per_second=float(self.stage.GetTimeCodesPerSecond()),
-            dome=read_dome(self.where, self.notes, self.domes, self._world),
+            dome=dome,
         )
 
     def _closing_notes(self, cameras, framing) -> None:
