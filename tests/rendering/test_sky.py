@@ -17,6 +17,8 @@ Pixels within a quarter texel of a texel edge are not compared.
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import OpenImageIO as oiio
 import pytest
@@ -325,3 +327,27 @@ def Mesh "Behind"
     ]
     img = warp_st.render(scene, frame=0, width=8, height=6)
     assert np.abs(img.rgba[..., :3] - np.array([0.25, 0.125, 0.5])).max() < 1e-7  # float32 of exact values
+
+
+def test_an_automatic_map_that_is_not_two_to_one_warns(tmp_path):
+    write_exr(tmp_path / "square.exr", np.ones((8, 8, 3), np.float32))
+    write_exr(tmp_path / "latlong.exr", np.ones((8, 16, 3), np.float32))
+    for name, expected in (("square.exr", ["'automatic': the map is 8 x 8, not a 2:1 latlong map; it is read as "
+                                           "latlong (other layouts are not detected)"]), ("latlong.exr", [])):
+        (tmp_path / "a.usda").write_text(f'''#usda 1.0
+def DomeLight "Sky"
+{{
+    asset inputs:texture:file = @{name}@
+}}
+def Mesh "M"
+{{
+    point3f[] points = [(-1, -1, -5), (1, -1, -5), (1, 1, -5)]
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+}}
+''')
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            scene = warp_st.load(str(tmp_path / "a.usda"))
+        assert [d.message for d in scene.diagnostics if d.prim == "/Sky"] == expected
+        assert scene.dome.texels.shape[:2] == (8, 8 if name == "square.exr" else 16)

@@ -84,6 +84,10 @@ def _texels(where: Where, notes: Notes, prim) -> np.ndarray | None:
         notes.warn(prim, "inputs:texture:file", f"{asset.path} cannot be read ({exc}); {instead}", "MissingTexture")
         return None
     texels = image.texels
+    h, w = texels.shape[:2]
+    if fmt == "automatic" and w != 2 * h:
+        notes.warn(prim, "inputs:texture:format", f"'automatic': the map is {w} x {h}, not a 2:1 latlong map; it is "
+                   "read as latlong (other layouts are not detected)", "NotHonoured")
     rgba = np.ones(texels.shape[:2] + (4,), np.float32)
     rgba[..., :3] = texels[..., :1] if texels.shape[2] < 3 else texels[..., :3]
     return rgba
