@@ -4,6 +4,9 @@ Pure Warp device code. Lights are at rest in the lab (docs/spec.md §3).
 """
 import warp as wp
 
+from warp_st.kernels.sky import make_sky
+from warp_st.kernels.texture import make_textures
+
 __all__ = ["make_shade"]
 
 
@@ -14,6 +17,8 @@ def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
     # event: in float32 1e-4 is ~1000 ulps, far above the rounding of the hit.
     SELF_EPS = 1.0e-4 if wp.types.type_size_in_bytes(scalar) == 4 else 1.0e-9
     FAR = 1.0e30
+    Textures, _inputs = make_textures(scalar)
+    Sky, _radiance, _irradiance = make_sky(scalar)
 
     @wp.struct
     class Shading:
@@ -26,6 +31,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
         mat_diffuse: wp.array(dtype=vec3)
         mat_emissive: wp.array(dtype=vec3)
         mat_metallic: wp.array(dtype=scalar)
+        tex: Textures  # the materials' textures (kernels/texture.py)
         body_origin: wp.array(dtype=vec4)  # (t_ref, o) relative to the render origin
         body_velocity: wp.array(dtype=vec3)
         body_gamma: wp.array(dtype=scalar)
@@ -41,6 +47,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
         sample_weight: wp.array(dtype=scalar)  # area weights (sum: the light's area)
         light_count: int
         background: vec3
+        sky: Sky  # a DomeLight (kernels/sky.py); sky.present 0: the background is the sky
         max_depth: int
         basis_inv: mat33  # spectral basis for the Doppler colour shift (spectrum.py)
         color_shift: int
@@ -128,16 +135,16 @@ def make_shade(scalar, vec3, vec4, Geometry, trace, mat33=None):
         return total
 
     @wp.func
-    def shade(geo: Geometry, shd: Shading, finite: int, prim: int, path: scalar, event: vec4, normal: vec3):
+    def shade(geo: Geometry, shd: Shading, finite: int, prim: int, path: scalar, event: vec4, normal: vec3,
+              diffuse: vec3, emissive: vec3):
         """Emission plus Lambert from lights at rest, each behind a null-ray shadow test.
 
+        ``diffuse`` / ``emissive``: the material's at the hit (textured or constant).
         Without lights the surface shows its unlit albedo (docs/spec.md §3).
         """
         tri = geo.prim_tri[prim]
-        mat = shd.tri_material[tri]
         body = shd.tri_body[tri]
-        diffuse = shd.mat_diffuse[mat]
-        color = shd.mat_emissive[mat]
+        color = emissive
         if shd.light_count == 0:
             return color + diffuse
         x = vec3(event[1], event[2], event[3])

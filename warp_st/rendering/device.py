@@ -18,6 +18,7 @@ from warp_st.core.light_samples import area_samples
 from warp_st.core.scene import Light
 from warp_st.kernels import Kernels
 from warp_st.kernels.spectrum import spectral_basis_inverse
+from warp_st.rendering.device_textures import sky_struct, tet_corners, texture_tables
 from warp_st.spacetime.extrude import SpacetimeMesh
 
 __all__ = ["ShadingTables", "StaticArrays", "make_geometry", "set_nodes", "outward", "make_shading"]
@@ -47,6 +48,7 @@ class ShadingTables:
         self.mat_emissive = wp.array(emissive, dtype=k.vec3, device=_DEVICE)
         metallic = np.array([m.metallic for m in mats], dtype=np_scalar).reshape(-1)
         self.mat_metallic = wp.array(metallic, dtype=k.scalar, device=_DEVICE)
+        self.textures = texture_tables(k, tables)
         bodies = tables.bodies
         self.body_velocity = wp.array(
             np.array([b.velocity for b in bodies], dtype=np_scalar).reshape(-1, 3), dtype=k.vec3, device=_DEVICE
@@ -70,6 +72,8 @@ class StaticArrays(ShadingTables):
             self.prism_velocity = velocity[mesh.tri_body[tri]] if len(tri) else np.zeros((0, 3))
         else:
             vidx, tri = mesh.tets, mesh.tet_tri
+            if self.textures.info.shape[0]:  # which triangle corner each tetrahedron vertex is
+                self.textures.prim_corner = wp.array(tet_corners(mesh.tets), dtype=wp.int32, device=_DEVICE)
         self.prim_vidx = wp.array(vidx.astype(np.int32), dtype=wp.vec4i, device=_DEVICE)
         self.prim_tri = wp.array(tri.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         # The kernel traces the 4-wide form of the BVH (bvh_wide.py).
@@ -135,8 +139,10 @@ def make_shading(
     *,
     doppler_color: bool = False,
     searchlight: bool = False,
+    dome=None,
 ):
-    """Shading struct: materials, bodies and lights, positions recentred on ``origin``."""
+    """Shading struct: materials, bodies and lights, positions recentred on ``origin``;
+    ``dome``: the scene's sky (a ``Dome``) or None."""
     ns = static.np_scalar
     s = k.Shading()
     s.vert_normal = static.vert_normal
@@ -148,6 +154,7 @@ def make_shading(
     s.mat_diffuse = static.mat_diffuse
     s.mat_emissive = static.mat_emissive
     s.mat_metallic = static.mat_metallic
+    s.tex = static.textures
     s.body_origin = wp.array((static.body_events - origin).astype(ns).reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
     s.body_velocity = static.body_velocity
     s.body_gamma = static.body_gamma
@@ -171,6 +178,7 @@ def make_shading(
     s.sample_weight = wp.array(weights.astype(ns), dtype=k.scalar, device=_DEVICE)
     s.light_count = len(lights)
     s.background = k.vec3(*[float(x) for x in background])
+    s.sky = sky_struct(k, dome)
     s.max_depth = int(max_depth)
     s.basis_inv = k.mat33(*spectral_basis_inverse().reshape(-1).tolist())
     s.color_shift = 1 if doppler_color else 0

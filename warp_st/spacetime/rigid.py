@@ -119,11 +119,14 @@ def _canonical_half_extent(kind: int, param: np.ndarray) -> np.ndarray:
 
 def quadric_body(body, exact: bool) -> bool:
     """True when ``body`` is traced as its exact analytic shape: quadrics asked for and the
-    body's one surface a UsdGeom.Sphere, Cylinder, Cone or Capsule with an invertible
-    transform."""
+    body's one surface an untextured UsdGeom.Sphere, Cylinder, Cone or Capsule of one
+    material with an invertible transform."""
     if not exact or len(body.surfaces) != 1:
         return False
-    shape = analytic_shape(body.surfaces[0])
+    surface = body.surfaces[0]
+    if any(t is not None for t in surface.material.textures) or surface.triangle_material is not None:
+        return False  # an analytic hit has no st and no face: textured or per-face shading keeps triangles
+    shape = analytic_shape(surface)
     return shape is not None and abs(float(np.linalg.det(shape[1]))) > 1e-300
 
 
@@ -175,7 +178,8 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
     quadric_inv = np.tile(np.eye(3), (n_bodies, 1, 1))
     quadric_centre = np.zeros((n_bodies, 3))
     quadric_param = np.zeros((n_bodies, 3))
-    tables = {k: [] for k in ("normals", "vidx", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material")}
+    tables = {k: [] for k in ("normals", "vidx", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material",
+                              "tri_st")}
     n_tri = n_vert = 0
     for i, (body, bt, key) in enumerate(zip(scene.bodies, found, keys)):
         tri_base[i], vert_base[i] = n_tri, n_vert
@@ -223,6 +227,7 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
         tables["tri_size"].append(bt.tri_size)
         tables["tri_body"].append(np.full(len(bt.triangles), i, np.int32))
         tables["tri_material"].append(bt.tri_material)
+        tables["tri_st"].append(bt.tri_st)
         n_tri += len(bt.triangles)
         n_vert += len(bt.local)
     # Each body's queries start where the ray enters the rest box of its whole frame.
@@ -245,7 +250,7 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
         tri_vidx=cat("vidx", (0, 3), np.int32), tri_normal=cat("tri_normal", (0, 3), np.float64),
         tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), np.float64),
         tri_body=cat("tri_body", (0,), np.int32), tri_material=cat("tri_material", (0,), np.int32),
-        materials=tuple(materials), bodies=tuple(scene.bodies),
+        materials=tuple(materials), bodies=tuple(scene.bodies), tri_st=cat("tri_st", (0, 3, 2), np.float64),
     )
 
 

@@ -130,6 +130,8 @@ HONOURED = {
     "DistantLight": _LIGHT | {"inputs:angle"},
     "RectLight": _LIGHT | {"inputs:width", "inputs:height"},
     "DiskLight": _LIGHT | {"inputs:radius"},
+    # the sky (usd/dome.py); guideRadius only draws a guide
+    "DomeLight": _LIGHT | {"inputs:texture:file", "inputs:texture:format", "guideRadius"},
     # clippingRange / focusDistance / stereoRole change nothing a ray tracer without clipping,
     # depth of field or stereo would draw
     "Camera": _XFORMABLE | {"focalLength", "horizontalAperture", "verticalAperture", "horizontalApertureOffset",

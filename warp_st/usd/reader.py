@@ -43,6 +43,7 @@ from warp_st.usd import attributes as A
 from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
 from warp_st.usd.camera import CameraEvaluator, frame_bounds
 from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
+from warp_st.usd.dome import read_dome
 from warp_st.usd.geometry import GprimReader, is_hidden, world_transform
 from warp_st.usd.lights import SUPPORTED, read_light
 from warp_st.usd.products import read_products
@@ -85,6 +86,7 @@ class _StageReader:
         self.gprims = GprimReader(self.where, self.xf, self.notes)
         self.bodies: list[_BodyBuilder] = []
         self.lights: list[Light] = []
+        self.domes: list = []  # DomeLight prims: the first is the sky (usd/dome.py)
         self.cameras: list[str] = []
         self.settings_prims: list = []
         self._current = None
@@ -95,6 +97,7 @@ class _StageReader:
         self.notes.count_samples = samples_listable(self.stage)
         composition(self.notes, self.stage)
         self._traverse()
+        dome = read_dome(self.where, self.notes, self.domes, self._world)  # the sky (usd/dome.py)
         settings_prim = self._settings_prim()
         settings = self._render_settings(settings_prim)
         products = () if settings_prim is None else read_products(self.where, self.stage, settings_prim,
@@ -127,6 +130,7 @@ class _StageReader:
             diagnostics=self.notes.items(),
             meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(self.stage)),
             time_codes_per_second=float(self.stage.GetTimeCodesPerSecond()),
+            dome=dome,
         )
 
     def _closing_notes(self, cameras, framing) -> None:
@@ -226,7 +230,12 @@ class _StageReader:
 
     # -- lights ---------------------------------------------------------------------
     def _light(self, prim) -> None:
-        """A UsdLux light as UsdLux defines it (docs/spec.md §3; ``warp_st.usd.lights``)."""
+        """A UsdLux light as UsdLux defines it (docs/spec.md §3; ``warp_st.usd.lights``); a
+        DomeLight is the sky (``warp_st.usd.dome``)."""
+        if prim.IsA(UsdLux.DomeLight):
+            self.gprims.check(prim)
+            self.domes.append(prim)
+            return
         if str(prim.GetTypeName()) in SUPPORTED:
             self.gprims.check(prim)
         light = read_light(self.where, prim, self._world(prim), self.notes)
