@@ -46,7 +46,8 @@ def Xform "World"
 {extra}
     def DistantLight "Sun"
     {{
-        float inputs:intensity = 1
+        float inputs:angle = 0
+        float inputs:intensity = 3.1415927
     }}
 }}
 """

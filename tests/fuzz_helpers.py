@@ -100,7 +100,7 @@ TARGETS = [
     ("cam_c", "/World/Cam", "spacetime:lightSpeed", "token", 'custom token spacetime:lightSpeed = "finite"'),
     ("cam_u", "/World/Cam", "spacetime:fourVelocity", "double4", "custom double4 spacetime:fourVelocity = (1, 0, 0, 0.1)"),
     ("cam_xf", "/World/Cam", "xformOp:translate", "double3", "double3 xformOp:translate = (0, 0, 8)"),
-    ("sun_i", "/World/Sun", "inputs:intensity", "float", "float inputs:intensity = 2"),
+    ("sun_i", "/World/Sun", "inputs:intensity", "float", "float inputs:intensity = 6.2831855"),  # E = 2 pi at angle 0
     ("sun_e", "/World/Sun", "inputs:exposure", "float", "float inputs:exposure = 0"),
     ("sun_c", "/World/Sun", "inputs:color", "color3f", "color3f inputs:color = (1, 0.9, 0.8)"),
     ("sun_k", "/World/Sun", "inputs:colorTemperature", "float", "float inputs:colorTemperature = 6500"),
@@ -145,6 +145,7 @@ def Xform "World"
 
     def DistantLight "Sun"
     {
+        float inputs:angle = 0
         {sun_i}
         {sun_e}
         {sun_c}
@@ -154,6 +155,8 @@ def Xform "World"
 
     def SphereLight "Lamp"
     {
+        float inputs:radius = 1
+        bool treatAsPoint = true
         {lamp_i}
         {lamp_xf}
         uniform token[] xformOpOrder = ["xformOp:translate"]

@@ -56,7 +56,8 @@ def Xform "Ball" (
 
 def DistantLight "Sun"
 {{
-    float inputs:intensity = 2
+    float inputs:angle = 0
+    float inputs:intensity = 6.2831855
 }}
 {prim}"""
 

@@ -34,7 +34,8 @@ import numpy as np
 import pytest
 
 import warp_st
-from warp_st.commands import inspect_diff, inspect_plot
+from warp_st.commands import inspect_diff
+from warp_st.output import plot
 from warp_st.commands.cli import main
 from warp_st.core import lorentz, tessellate
 from warp_st.output.film import CHANNEL_NAMES, Image, channel_spec
@@ -238,30 +239,30 @@ def _spread_image(h=6, w=8):
 def test_channel_figure_has_title_units_and_colour_bar(name):
     """Every SPEC channel: the title names the file and channel, the colour bar is labelled
     with the channel's units (film.CHANNELS), the picture shows the values in that map."""
-    fig = inspect_plot.channel_figure(_spread_image(), "f.exr", name)
+    fig = plot.channel_figure(_spread_image(), "f.exr", name)
     try:
         ax, bar = fig.axes[0], fig.axes[1]
         assert ax.get_title().startswith(f"f.exr: {name}") and "frame 10" in ax.get_title()
         assert channel_spec(name).units in bar.get_ylabel()
         picture = ax.get_images()[0]
-        data = inspect_plot.shown(name, inspect_plot.plane(_spread_image(), name, relative=True))
+        data = plot.shown(name, plot.plane(_spread_image(), name, relative=True))
         assert np.array_equal(np.ma.getmaskarray(picture.get_array()), ~np.isfinite(data))
         if name in ("Z", "objectId") or math.isnan(channel_spec(name).background):
             assert np.ma.getmaskarray(picture.get_array())[:, -2:].all()  # the background: grey
         if channel_spec(name).relative_time:  # drawn as t - t_c
             assert np.nanmax(data) < 0 and "t - t_c" in bar.get_ylabel()
     finally:
-        inspect_plot._pyplot().close(fig)
+        plot._pyplot().close(fig)
 
 
 def test_object_ids_get_one_colour_each():
-    c = inspect_plot.colouring("objectId", [np.array([np.nan, 1.0, 2.0, 3.0])], "u")
+    c = plot.colouring("objectId", [np.array([np.nan, 1.0, 2.0, 3.0])], "u")
     rgba = [tuple(c.cmap(c.norm(k))) for k in (1, 2, 3)]
     assert len(set(rgba)) == 3 and all(len(set(x[:3])) > 1 for x in rgba)  # distinct, none grey
 
 
 def test_doppler_scale_is_logarithmic_and_centred_on_one():
-    c = inspect_plot.colouring("spacetime.doppler", [np.array([0.5, 1.0, 1.6, np.nan])], "u")
+    c = plot.colouring("spacetime.doppler", [np.array([0.5, 1.0, 1.6, np.nan])], "u")
     assert c.norm.vmin == pytest.approx(1 / 2.0) and c.norm.vmax == pytest.approx(2.0)
     assert c.norm(1.0) == pytest.approx(0.5)  # white, the middle of RdBu
 
@@ -379,9 +380,9 @@ def test_contact_sheet_inputs(tmp_path, capsys):
 
 
 def test_grid_shape():
-    assert [inspect_plot.grid_shape(n) for n in (1, 2, 4, 5, 9, 10)] == [(1, 1), (1, 2), (2, 2), (2, 3), (3, 3),
+    assert [plot.grid_shape(n) for n in (1, 2, 4, 5, 9, 10)] == [(1, 1), (1, 2), (2, 2), (2, 3), (3, 3),
                                                                           (3, 4)]
-    assert inspect_plot.grid_shape(7, 3) == (3, 3) and inspect_plot.grid_shape(2, 9) == (1, 2)
+    assert plot.grid_shape(7, 3) == (3, 3) and plot.grid_shape(2, 9) == (1, 2)
 
 
 # --- --diff -----------------------------------------------------------------------------------

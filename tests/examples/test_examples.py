@@ -13,3 +13,35 @@ def test_moving_sphere_example_runs_and_stays_within_the_sagitta(capsys, tmp_pat
     bound = float(last.split("bound ")[1].rstrip(")"))
     assert worst < bound
     assert out.exists()
+
+
+def test_terrell_globe_shows_its_meridians_turned_by_asin_beta(capsys, tmp_path):
+    """The globe example (a UsdUVTexture on a UV-sphere mesh): the longitude seen at the
+    image centre is the closed form -asin(beta) at 0.9c and 0 at rest, to within a texel
+    and a half (the map's resolution, 1.4 degrees, plus the facets)."""
+    import math
+
+    example = load_example("terrell_globe.py")
+    assert example.main(["--beta", "0.9", "--out", str(tmp_path), "--width", "81", "--height", "61"]) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("beta ")]
+    seen = [float(line.split("centre ")[1].split()[0]) for line in rows]
+    assert len(seen) == 2
+    assert abs(seen[0] - 0.0) < 2.1
+    assert abs(seen[1] + math.degrees(math.asin(0.9))) < 2.1
+    assert (tmp_path / "terrell_globe.png").exists()
+
+
+def test_starbow_example_flies_through_the_dome(capsys, tmp_path):
+    """The starfield example (a DomeLight sky): the largest Doppler factor in view is the
+    head-on sqrt((1 + beta) / (1 - beta)), seen at the centre pixel of an odd-sized image
+    looking along the flight (float32: 1e-5 relative)."""
+    import math
+
+    example = load_example("starbow.py")
+    argv = ["--betas", "0.5", "0.99", "--out", str(tmp_path), "--width", "49", "--height", "49", "--samples", "1"]
+    assert example.main(argv) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("beta ")]
+    for beta, line in zip((0.5, 0.99), rows):
+        top = float(line.rsplit(" to ", 1)[1])
+        assert abs(top / math.sqrt((1 + beta) / (1 - beta)) - 1.0) < 1e-2  # printed to 2 decimals
+    assert (tmp_path / "starbow.png").exists()

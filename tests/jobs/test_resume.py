@@ -60,7 +60,8 @@ def Xform "World"
 
     def DistantLight "Sun"
     {
-        float inputs:intensity = 1
+        float inputs:angle = 0
+        float inputs:intensity = 3.1415927
     }
 }
 """

@@ -84,7 +84,8 @@ def Camera "Side" {
     float focalLength = 18
 }
 def DistantLight "Sun" {
-    float inputs:intensity = 2
+    float inputs:angle = 0
+    float inputs:intensity = 6.2831855
 }
 def Cube "Mover" (prepend apiSchemas = ["SpacetimeBodyAPI"]) {
     double size = 1.5

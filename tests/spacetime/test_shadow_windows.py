@@ -123,3 +123,51 @@ def test_vectorised_bounds_match_one_source_at_a_time():
         np.testing.assert_allclose([one[0][0], one[1][0]], [lo[i], hi[i]], rtol=1e-12)
         np.testing.assert_allclose(_retarded_roots(m0, v, k[i])[0], tau[i], rtol=1e-12)
     assert (lo[3], hi[3]) == (-np.inf, np.inf)
+
+
+@pytest.mark.parametrize("kind", ["rect", "disk", "sphere"])
+def test_occluder_window_covers_shadow_rays_to_every_point_of_an_area_light(kind):
+    """Shadow rays to an area light end anywhere on it (docs/spec.md §3), not at its centre: a ball
+    moving under the far edge of a wide light (half-size 4) meets the rays from a hit ball to the
+    light's outermost sample point only there, over 1.5 from the axis to the light's centre. Every lab time at
+    which it comes within its radius of such a ray (brute force over hit points, hit times, the
+    light's samples and the ray's length) lies inside the occluder window."""
+    from types import SimpleNamespace
+
+    from warp_st.core.light_samples import area_samples
+    from warp_st.core.scene import Light
+    from warp_st.spacetime.visibility import _occluder_windows, intervals
+
+    centre_l = np.array([0.0, 5.0, 0.0])
+    if kind == "sphere":
+        light = Light("sphere", (1.0, 1.0, 1.0), position=tuple(centre_l), radius=4.0)
+        samples = centre_l + 4.0 * np.array([[1.0, 0, 0], [-1.0, 0, 0], [0, 0, 1.0], [0.7, 0, 0]])
+    else:
+        light = Light(kind, (1.0, 1.0, 1.0), position=tuple(centre_l), direction=(0.0, 1.0, 0.0),
+                      axes=((4.0, 0.0, 0.0), (0.0, 0.0, 4.0)))
+        samples = area_samples(light)[0]
+    hit_centre, hit_radius, t_lo, t_hi = np.array([3.4, 0.0, 0.0]), 0.2, 0.0, 2.0
+    # the ball crosses the ray to the outermost sample halfway, at lab time ~ 1 - |p - C| / 2
+    edge = samples[np.argmax(samples[:, 0])]
+    v, t_ref, rho = np.array([0.3, 0.0, 0.0]), 0.0, 0.3
+    m0 = 0.5 * (hit_centre + edge) - v * (1.0 - 0.5 * np.linalg.norm(edge - hit_centre))
+    assert np.linalg.norm(np.cross(m0 - hit_centre, centre_l - hit_centre)) / np.linalg.norm(centre_l - hit_centre) \
+        > 1.5, "the ball must pass far from the axis to the light's centre"
+    body = SimpleNamespace(velocity=tuple(v), reference_time=t_ref)
+    scene = SimpleNamespace(lights=(light,))
+    window = _occluder_windows(scene, body, m0, rho, [(hit_centre, hit_radius, t_lo, t_hi)], False)
+    spans = intervals(window)
+    rng = np.random.default_rng(3)
+    near_times = []
+    for _ in range(60):
+        x = hit_centre + rng.uniform(-1, 1, 3) * hit_radius / np.sqrt(3.0)
+        t = rng.uniform(t_lo, t_hi)
+        for p in samples:
+            s = np.linspace(0.0, np.linalg.norm(p - x), 400)
+            l = (p - x) / np.linalg.norm(p - x)
+            times = t - s
+            gap = np.linalg.norm(x + s[:, None] * l - (m0 + (times - t_ref)[:, None] * v), axis=1)
+            near_times.extend(times[gap <= rho].tolist())
+    assert len(near_times) > 10, "the case must put the ball across some shadow rays"
+    for tn in near_times:
+        assert any(lo <= tn <= hi for lo, hi in spans), (tn, spans)

@@ -41,11 +41,14 @@ class Stage:
     files: dict[str, str]
     warnings: list[tuple[str | None, str | None, str]]
     default_camera: bool = True
-    others: dict[str, str] = field(default_factory=dict)
+    others: dict[str, str | bytes] = field(default_factory=dict)
 
     def write(self, folder: Path) -> Path:
         for name, text in {**self.files, **self.others}.items():
-            (folder / name).write_text(text)
+            if isinstance(text, bytes):
+                (folder / name).write_bytes(text)
+            else:
+                (folder / name).write_text(text)
         return folder / self.main
 
 
@@ -228,14 +231,41 @@ def bad_material_inputs() -> Stage:
                                                            "the UsdPreviewSurface default (0.0,) is used")])
 
 
+def _png(pixels) -> bytes:
+    """An 8-bit PNG of ``pixels`` (H, W, 3) uint8, through OpenImageIO."""
+    import tempfile
+
+    import numpy as np
+    import OpenImageIO as oiio
+
+    pixels = np.ascontiguousarray(pixels, dtype=np.uint8)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = str(Path(tmp) / "image.png")
+        out = oiio.ImageOutput.create(path)
+        out.open(path, oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], oiio.UINT8))
+        out.write_image(pixels)
+        out.close()
+        return Path(path).read_bytes()
+
+
 def textured() -> Stage:
-    """A texture on diffuseColor (through a PrimvarReader) and a normal map: not supported yet."""
+    """A texture on diffuseColor through a PrimvarReader (rendered), a normal map (not
+    honoured), a texture whose file is missing (its fallback), and a second mesh that
+    lacks the st primvar (the reader's fallback st)."""
     looks = _material("Wood", '''color3f inputs:diffuseColor.connect = </Looks/Wood/Tex.outputs:rgb>
-            normal3f inputs:normal.connect = </Looks/Wood/Bump.outputs:rgb>''') [:-6] + '''
+            color3f inputs:emissiveColor.connect = </Looks/Wood/Glow.outputs:rgb>
+            normal3f inputs:normal.connect = </Looks/Wood/Bump.outputs:rgb>''')[:-6] + '''
         def Shader "Tex"
         {
             uniform token info:id = "UsdUVTexture"
             asset inputs:file = @wood.png@
+            float2 inputs:st.connect = </Looks/Wood/St.outputs:result>
+            float3 outputs:rgb
+        }
+        def Shader "Glow"
+        {
+            uniform token info:id = "UsdUVTexture"
+            asset inputs:file = @glow.png@
             float2 inputs:st.connect = </Looks/Wood/St.outputs:result>
             float3 outputs:rgb
         }
@@ -252,11 +282,30 @@ def textured() -> Stage:
             float2 outputs:result
         }
     }'''
-    connected = "(UsdUVTexture): textures (UsdUVTexture) are not supported yet"
-    return Stage("wood.usda", {"wood.usda": _stage(f'def Scope "Looks"\n{{{looks}\n}}\n' + _bound_quads("Wood"))},
-                 [("/Looks/Wood/Surface", "inputs:diffuseColor", f"is connected to /Looks/Wood/Tex {connected}; its "
-                                                                "own value, else the default, is used"),
-                  ("/Looks/Wood/Surface", "inputs:normal", f"is connected to /Looks/Wood/Bump {connected}; ignored")])
+    quads = f'''
+def Mesh "WoodQuad" (prepend apiSchemas = ["MaterialBindingAPI"])
+{{
+    {QUAD}
+    texCoord2f[] primvars:st = [(0, 0), (1, 0), (1, 1), (0, 1)] (interpolation = "vertex")
+    rel material:binding = </Looks/Wood>
+}}
+def Mesh "BareQuad" (prepend apiSchemas = ["MaterialBindingAPI"])
+{{
+    point3f[] points = [(1, -1, 0), (3, -1, 0), (3, 1, 0), (1, 1, 0)]
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    rel material:binding = </Looks/Wood>
+}}'''
+    grain = [[(160 + 10 * ((x + y) % 3), 110, 60) for x in range(8)] for y in range(8)]
+    return Stage("wood.usda", {"wood.usda": _stage(f'def Scope "Looks"\n{{{looks}\n}}\n' + quads)},
+                 [("/Looks/Wood/Surface", "inputs:normal", "is connected to /Looks/Wood/Bump (UsdUVTexture): textures "
+                                                          "(UsdUVTexture) are read on diffuseColor, emissiveColor and "
+                                                          "metallic only; ignored"),
+                  ("/Looks/Wood/Glow", "inputs:file", "glow.png cannot be found; the texture's fallback (0.0, 0.0, "
+                                                      "0.0, 1.0) is used"),
+                  ("/BareQuad", "primvars:st", "is not authored, but a texture reads it; the primvar reader's "
+                                               "fallback (0.0, 0.0) is used")],
+                 others={"wood.png": _png(grain)})
 
 
 def other_shaders() -> Stage:
@@ -334,8 +383,9 @@ def PointInstancer "Swarm"
 
 
 def lights() -> Stage:
-    """Lights as assets author them: a dome, a rect light, a sphere light with a radius,
-    shaping and a filter, a distant light with an angle."""
+    """Lights as assets author them: a dome (the sky: tests/rendering/test_sky.py), a cylinder
+    light (ignored), a rect light, a sphere light with a radius (honoured), shaping and a
+    filter (warned), a distant light with an angle (honoured)."""
     return Stage("lit.usda", {"lit.usda": _stage(f'''{CAMERA}
 def Mesh "Floor"
 {{
@@ -345,6 +395,9 @@ def DomeLight "Sky"
 {{
 }}
 def RectLight "Softbox"
+{{
+}}
+def CylinderLight "Tube"
 {{
 }}
 def SphereLight "Bulb" (prepend apiSchemas = ["ShapingAPI"])
@@ -363,12 +416,10 @@ def DistantLight "Sun"
 def Xform "Gobo"
 {{
 }}
-''')}, [("/Sky", None, "DomeLight is not supported (environment lighting is not supported yet); ignored"),
-        ("/Softbox", None, "RectLight is not supported (only SphereLight and DistantLight are); ignored"),
-        ("/Bulb", "inputs:radius", "the light is drawn as a point: its radius is not honoured; ignored"),
+''')}, [("/Tube", None, "CylinderLight is not supported (only SphereLight, DistantLight, RectLight and DiskLight "
+                        "are); ignored"),
         ("/Bulb", "inputs:shaping:cone:angle", "light shaping is not supported; ignored"),
-        ("/Bulb", "light:filters", "light filters are not supported; ignored"),
-        ("/Sun", "inputs:angle", "a distant light's angle is not honoured (its shadows are sharp); ignored")],
+        ("/Bulb", "light:filters", "light filters are not supported; ignored")],
         default_camera=False)
 
 
@@ -480,7 +531,8 @@ def RenderSettings "Settings"
 
 
 def unknown_types_and_subsets() -> Stage:
-    """A prim of a type no loaded schema knows, and per-face (GeomSubset) material bindings."""
+    """A prim of a type no loaded schema knows, and per-face (GeomSubset) material bindings
+    (honoured: tests/usd/test_materials.py)."""
     looks = _material("Red", "color3f inputs:diffuseColor = (1, 0, 0)") + _material(
         "Blue", "color3f inputs:diffuseColor = (0, 0, 1)")
     return Stage("subsets.usda", {"subsets.usda": _stage(f'''def Scope "Looks"
@@ -503,9 +555,7 @@ def Mesh "Dice" (prepend apiSchemas = ["MaterialBindingAPI"])
         rel material:binding = </Looks/Blue>
     }}
 }}
-''')}, [("/Glow", None, "its type 'PxrMeshLight' is not known to USD here (no schema is loaded for it); not rendered"),
-        ("/Dice/Right", "material:binding", "per-face materials (GeomSubset bindings) are not supported yet; the "
-                                            "mesh's own material is used for every face")])
+''')}, [("/Glow", None, "its type 'PxrMeshLight' is not known to USD here (no schema is loaded for it); not rendered")])
 
 
 #: Every class of the corpus, by name.

@@ -430,7 +430,7 @@ def wild_stage(draw) -> dict:
                 cam.append(draw(wild_attr(name, typ, st.just(good), prefix)))
         parts.append('def Camera "Cam" (\n prepend apiSchemas = ["SpacetimeCameraAPI"]\n)\n{\n' + "\n".join(cam) + "\n}\n")
     for i in range(draw(st.integers(0, 2))):
-        kind = draw(st.sampled_from(["DistantLight", "SphereLight", "RectLight"]))
+        kind = draw(st.sampled_from(["DistantLight", "SphereLight", "RectLight", "DiskLight"]))
         attrs = [draw(wild_attr("inputs:intensity", "float", st.floats(0, 10).map(fmt_real), ""))]
         if _maybe(draw, 0.3):
             attrs.append(draw(wild_attr("inputs:exposure", "float", st.floats(-3, 3).map(fmt_real), "")))

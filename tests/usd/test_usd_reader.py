@@ -521,8 +521,10 @@ def test_camera_errors(tmp_path):
 
 # -- lights and settings ---------------------------------------------------------------------
 def test_lights(tmp_path):
-    """Law (docs/spec.md §3): radiance = intensity * color * 2^exposure; SphereLight at its world position;
-    DistantLight's direction is its local +Z in world (rotateX -90 turns +Z into +Y); invisible skipped."""
+    """Law (docs/spec.md §3): L = intensity * color * 2^exposure; a SphereLight at its world position
+    with the schema's radius 0.5 shines as a point of I / pi = L r^2; a DistantLight with the schema's
+    angle 0.53 degrees gives E / pi = L sin^2(angle / 2); its direction is its local +Z in world
+    (rotateX -90 turns +Z into +Y); invisible skipped."""
     scene = load(tmp_path, '''
         def SphereLight "Bulb" {
             double3 xformOp:translate = (1, 2, 3)
@@ -540,8 +542,12 @@ def test_lights(tmp_path):
             token visibility = "invisible"
         }''')
     bulb, sun = scene.lights
-    assert bulb.kind == "sphere" and bulb.position == (1, 2, 3) and bulb.radiance == (8, 4, 2)
-    assert sun.kind == "distant" and sun.radiance == (3, 3, 3)
+    assert bulb.kind == "sphere" and bulb.position == (1, 2, 3) and bulb.radiance == (2, 1, 0.5)
+    assert bulb.radius == 0.5
+    half_angle = math.radians(float(np.float32(0.53))) / 2  # the schema's float fallback
+    # rel 1e-12: pi sin^2 / pi in float64
+    np.testing.assert_allclose(sun.radiance, [3 * math.sin(half_angle) ** 2] * 3, rtol=1e-12)
+    assert sun.kind == "distant"
     np.testing.assert_allclose(sun.direction, [0, 1, 0], atol=1e-7)
 
 

@@ -133,14 +133,14 @@ def Xform "Prop" (prepend references = @no_such_asset.usda@)
 def BasisCurves "Hair" {}
 def Points "Dust" {}
 def Volume "Smoke" {}
-def RectLight "Panel" {}
+def CylinderLight "Tube" {}
 def Xform "Empty" (prepend apiSchemas = ["SpacetimeBodyAPI"])
 {
     def NurbsPatch "Sheet" {}
 }""", [("WARNING", "/Hair", "BasisCurves gprims are not rendered"),
        ("WARNING", "/Dust", "Points gprims are not rendered"),
        ("WARNING", "/Smoke", "Volume gprims are not rendered"),
-       ("WARNING", "/Panel", "RectLight is not supported"),
+       ("WARNING", "/Tube", "CylinderLight is not supported"),
        ("WARNING", "/Empty/Sheet", "NurbsPatch gprims are not rendered"),
        ("WARNING", "/Empty", "nothing of this body is rendered")]),
 }

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from warp_st.commands.common import UsageError, int_arg, non_negative_float, positive_int
-from warp_st.commands.inspect_plot import BEAUTY
+from warp_st.output.plot import BEAUTY
 
 
 def add_arguments(parser) -> None:
@@ -112,7 +112,7 @@ def _prim_for(image, object_id: int) -> str:
 
 
 def _print_pixel(image, path: Path, x: int, y: int) -> None:
-    from warp_st.commands.inspect_plot import spec_of
+    from warp_st.output.plot import spec_of
 
     print(f"{path}: pixel x={x} y={y}")
     print(f"  camera time t_c = {image.camera_time!r}, frame {image.frame!r}, "
@@ -206,7 +206,7 @@ def run(args) -> int:
 
 
 def _single(args) -> int:
-    from warp_st.commands.inspect_plot import write_beauty_png, write_channel_png
+    from warp_st.output.plot import write_beauty_png, write_channel_png
     from warp_st.output.film import read_exr
 
     path = Path(args.exr[0])
@@ -241,7 +241,7 @@ def _single(args) -> int:
 
 
 def _contact_sheet(args) -> int:
-    from warp_st.commands.inspect_plot import write_contact_sheet
+    from warp_st.output.plot import write_contact_sheet
     from warp_st.output.film import read_exr
 
     channel = args.channel or BEAUTY

@@ -15,10 +15,14 @@ from warp_st.core.conventions import LightSpeed, Precision
 __all__ = [
     "SceneError",
     "surface_triangles",
+    "WRAP_MODES",
+    "Texture",
     "Material",
     "Surface",
+    "surface_keep",
     "Body",
     "Light",
+    "Dome",
     "CameraState",
     "RenderSettings",
     "RenderVar",
@@ -65,18 +69,57 @@ class Diagnostic:
         return str(SceneError.at(self.file, self.prim, self.attribute, self.message))
 
 
+#: Texture wrap modes the kernel knows, in its numbering (docs/spec.md §2, textures).
+WRAP_MODES = ("repeat", "clamp", "mirror", "black")
+
+
+@dataclass(frozen=True, eq=False)
+class Texture:
+    """One UsdUVTexture output feeding a material input (docs/spec.md §2, textures).
+
+    texels: (H, W, 4) float32, linear, ``scale`` and ``bias`` already applied; row 0 is
+        the top of the image (t = 1), column 0 its left (s = 0).
+    wrap: (wrapS, wrapT), each one of WRAP_MODES (``useMetadata`` already resolved).
+    border: the value outside [0, 1] under "black" wrap: black, scaled and biased (the bias).
+    channel: the output read: -1 for ``rgb``, 0..3 for ``r``, ``g``, ``b``, ``a``.
+    primvar, st_fallback: the UsdPrimvarReader_float2's ``varname`` and ``fallback``
+        (the st where the gprim has no such primvar).
+    st_transform: (2, 3) affine map of st (UsdTransform2d nodes between the reader and
+        the texture), None for none.
+    """
+
+    file: str
+    texels: np.ndarray
+    wrap: tuple[str, str] = ("repeat", "repeat")
+    border: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    channel: int = -1
+    primvar: str = "st"
+    st_fallback: tuple[float, float] = (0.0, 0.0)
+    st_transform: np.ndarray | None = None
+
+
 @dataclass(frozen=True)
 class Material:
     """UsdPreviewSurface subset. Colours are linear RGB.
 
     ``metallic`` is the weight of a perfect mirror (docs/spec.md §2). ``prim_path``: the
-    bound UsdShade.Material's ("" for displayColor): the CryptoMaterial names (§4.4).
+    bound UsdShade.Material's ("" for displayColor): the CryptoMaterial names (§4.4). A
+    ``*_texture`` replaces the constant with a texture lookup at the hit's st (the
+    constants then only matter where no texture is bound).
     """
 
     diffuse: tuple[float, float, float] = (0.18, 0.18, 0.18)
     emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)
     metallic: float = 0.0
     prim_path: str = ""
+    diffuse_texture: Texture | None = None
+    emissive_texture: Texture | None = None
+    metallic_texture: Texture | None = None
+
+    @property
+    def textures(self) -> tuple[Texture | None, Texture | None, Texture | None]:
+        """(diffuse, emissive, metallic) textures, None where the input is a constant."""
+        return (self.diffuse_texture, self.emissive_texture, self.metallic_texture)
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,11 +131,20 @@ class Surface:
     triangles: vertex indices into ``points``, shape (T, 3), int64.
     normals: optional per-point shading normals in world space, shape (P, 3),
         unit length (e.g. a tessellated sphere); None means flat shading.
+    st: texture coordinates at each triangle corner, shape (T, 3, 2), aligned with
+        ``triangles``; None when no material of the surface is textured.
+    subset_materials, triangle_material: per-face materials (GeomSubset bindings):
+        triangle i uses ``material`` where triangle_material[i] == 0, else
+        subset_materials[triangle_material[i] - 1]; None: ``material`` everywhere.
     sphere: for a UsdGeom.Sphere, the analytic shape the triangles approximate:
         (radius, world_from_local 4x4 float64 in USD's row-vector convention,
         p_world = p_local @ M[:3, :3] + M[3, :3]); the renderer re-tessellates it
         for the resolution (``warp_st.spacetime.adaptive.adapt_sphere_tessellation``). None for
         every other surface (its triangles are exact).
+    quadric: for a UsdGeom.Cylinder, Cone or Capsule, the analytic shape its triangles
+        approximate: (kind "cylinder" / "cone" / "capsule", axis "X" / "Y" / "Z", radius,
+        height, world_from_local 4x4 as for ``sphere``); None otherwise. The rigid path
+        traces it exactly (``spacetime.rigid``).
     """
 
     prim_path: str
@@ -101,6 +153,10 @@ class Surface:
     material: Material = Material()
     normals: np.ndarray | None = None
     sphere: tuple[float, np.ndarray] | None = None
+    quadric: tuple | None = None
+    st: np.ndarray | None = None
+    subset_materials: tuple[Material, ...] = ()
+    triangle_material: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,11 +194,24 @@ class Body:
 
 @dataclass(frozen=True)
 class Light:
-    """A light at rest in the lab.
+    """A light at rest in the lab (UsdLux semantics: docs/spec.md §3, docs/design/usdlux.md).
 
-    kind: "sphere" (a point at ``position``) or "distant" (from ``direction``).
-    direction: unit vector from the scene towards a distant light (its local +Z).
-    radiance: intensity * color * 2**exposure, linear RGB.
+    kind: "sphere" (a sphere of ``radius`` about ``position``; radius 0: a point),
+        "distant" (from ``direction``), "rect" or "disk" (one-sided area lights centred
+        on ``position``, emitting along -``direction``).
+    direction: unit vector: a distant light's local +Z in the lab (towards it); an area
+        light's surface normal on its local +Z side (its back: it emits along -direction).
+    radiance: the linear-RGB scale a Lambert surface of albedo rho multiplies, such that
+        it reflects rho * radiance * cos / d^2 from a sphere or point (radiance = I / pi,
+        I the radiant intensity), rho * radiance * cos from a distant light (radiance =
+        E / pi, E its irradiance at normal incidence), and rho * radiance * the
+        integral of cos cos' / d^2 over an area light (radiance = L / pi, L its
+        emitted radiance).
+    radius: the emitting sphere's radius (shadow rays leave from its silhouette); 0 for
+        a point (and for ``treatAsPoint``).
+    axes: "rect"/"disk": the light's half-extent vectors along its local X and Y in
+        the lab (a rect spans position + a u + b v for a, b in [-1, 1]; a disk has
+        a^2 + b^2 <= 1).
     """
 
     kind: str
@@ -150,6 +219,33 @@ class Light:
     position: tuple[float, float, float] = (0.0, 0.0, 0.0)
     direction: tuple[float, float, float] = (0.0, 0.0, 1.0)
     prim_path: str = ""
+    radius: float = 0.0
+    axes: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+
+    @property
+    def extent(self) -> float:
+        """Radius of a ball about ``position`` that holds every point a shadow ray ends at."""
+        u, v = (float(np.linalg.norm(a)) for a in self.axes)
+        return {"sphere": self.radius, "rect": u + v, "disk": max(u, v)}.get(self.kind, 0.0)
+
+
+@dataclass(frozen=True, eq=False)
+class Dome:
+    """A DomeLight: the sky, at rest in the lab at infinity (docs/spec.md §3, the sky).
+
+    radiance: intensity * color * 2**exposure, linear RGB (the texels' multiplier).
+    texels: the latlong map, (H, W, 4) float32 linear, OpenEXR's orientation (row 0
+        latitude +pi/2, column 0 longitude +pi); None: a constant sky of ``radiance``.
+    local_from_lab: (3, 3) rotation taking a lab direction into the dome's own axes.
+    irradiance: (9, 3) spherical-harmonic coefficients of the diffuse irradiance it gives,
+        lab axes (``core.sky_irradiance``); None: it lights nothing.
+    """
+
+    radiance: tuple[float, float, float]
+    texels: np.ndarray | None = None
+    local_from_lab: np.ndarray = field(default_factory=lambda: np.eye(3))
+    prim_path: str = ""
+    irradiance: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -262,6 +358,7 @@ class Scene:
     products: the settings' UsdRender products in ``products`` order (empty: none).
     diagnostics: what the reader did not honour (warnings) and chose (info), stage order.
     meters_per_unit, time_codes_per_second: the stage's metadata (None: not read).
+    dome: the sky (a DomeLight), None: the render settings' background.
     camera_state: ``camera_state(path, frame) -> CameraState`` evaluates a camera
         at a USD time code (the camera is the one thing that changes per frame).
     """
@@ -279,6 +376,7 @@ class Scene:
     diagnostics: tuple[Diagnostic, ...] = ()
     meters_per_unit: float | None = None
     time_codes_per_second: float | None = None
+    dome: Dome | None = None
 
     def body_paths(self) -> list[str]:
         return [b.prim_path for b in self.bodies]
@@ -289,8 +387,12 @@ class Scene:
         return {key: repr(float(value)) for key, value in items.items() if value is not None}
 
 
+def surface_keep(surf) -> np.ndarray:
+    """(T,) bool: the surface's triangles that are not degenerate index triples."""
+    tris = np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3)
+    return (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
+
+
 def surface_triangles(surf) -> np.ndarray:
     """A surface's triangles as (T, 3) int64, without degenerate index triples (no surface)."""
-    tris = np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3)
-    keep = (tris[:, 0] != tris[:, 1]) & (tris[:, 1] != tris[:, 2]) & (tris[:, 0] != tris[:, 2])
-    return tris[keep]
+    return np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3)[surface_keep(surf)]

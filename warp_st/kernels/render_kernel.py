@@ -10,8 +10,10 @@ import warp as wp
 
 from warp_st.kernels.layout import PRIMITIVES
 from warp_st.kernels.probe import make_probe
+from warp_st.kernels.sky import make_sky
 from warp_st.kernels.shade import make_shade
 from warp_st.kernels.spectrum import make_spectrum
+from warp_st.kernels.texture import make_textures
 from warp_st.kernels.trace import make_trace
 from warp_st.kernels.trace_rigid import make_trace_rigid
 
@@ -58,8 +60,11 @@ class Kernels:
 def _make_render(scalar, k, trace, Geometry):
     vec3, vec4 = k.vec3, k.vec4
     FAR = 1.0e30
+    INV_PI = 0.3183098861837907  # 1/pi (a cast of an expression would be evaluated in float32)
     Shading, self_eps, shading_normal, shade, reflect_null = make_shade(scalar, vec3, vec4, Geometry, trace)
     doppler_transform = make_spectrum(scalar, vec3)
+    _textures, surface_inputs = make_textures(scalar)
+    _sky, sky_radiance, sky_irradiance = make_sky(scalar)
 
     @wp.struct
     class Camera:
@@ -195,8 +200,14 @@ def _make_render(scalar, k, trace, Geometry):
             visits += vis
             overflow = wp.max(overflow, ovf)
             if prim < 0:
-                if depth > 0:
-                    bg = doppler_transform(shd.background, cam_term / energy, shd.doppler_table, shd.color_shift, shd.searchlight)
+                # The dome (at rest in the lab, D = cam_term / energy) is seen by every
+                # escaping ray; without one the background only after a mirror (the film
+                # composites it behind primary misses).
+                if depth > 0 or shd.sky.present != 0:
+                    bg = shd.background
+                    if shd.sky.present != 0:
+                        bg = sky_radiance(shd.sky, n)
+                    bg = doppler_transform(bg, cam_term / energy, shd.doppler_table, shd.color_shift, shd.searchlight)
                     color = color + wp.cw_mul(weight, bg)
                 break
             event = o + s * null_dir(n, finite)
@@ -207,11 +218,18 @@ def _make_render(scalar, k, trace, Geometry):
                 first_lam = lam
             tri = geo.prim_tri[prim]
             mat = shd.tri_material[tri]
-            metal = shd.mat_metallic[mat]
+            diffuse, emissive, metal = surface_inputs(shd.tex, prim, tri, lam, mat, shd.mat_diffuse[mat],
+                                                      shd.mat_emissive[mat], shd.mat_metallic[mat])
             normal = shading_normal(geo, shd, prim, lam, n)
             body = shd.tri_body[tri]
             if metal < scalar(1.0):
-                local = shade(geo, shd, finite, prim, path, event, normal)
+                local = shade(geo, shd, finite, prim, path, event, normal, diffuse, emissive)
+                if shd.sky.present != 0:  # the dome's diffuse light (no shadowing), instead of the unlit albedo
+                    lit = wp.cw_mul(diffuse, sky_irradiance(shd.sky, normal)) * scalar(INV_PI)
+                    if shd.light_count == 0:
+                        local = emissive + lit
+                    else:
+                        local = local + lit
                 ub = four_velocity(shd.body_velocity[body], shd.body_gamma[body], shd.body_decoupled[body])
                 body_term = ub[0]
                 if finite != 0:
@@ -242,7 +260,7 @@ def _make_render(scalar, k, trace, Geometry):
             if finite != 0:
                 nv = wp.dot(normal, v_mirror)
                 energy = energy * (scalar(1.0) + scalar(2.0) * (wp.dot(n, normal) + nv) * nv / (scalar(1.0) - nv * nv))
-            weight = wp.cw_mul(weight, shd.mat_diffuse[mat]) * metal
+            weight = wp.cw_mul(weight, diffuse) * metal
             o = event
             n = n_out
             skip = tri
@@ -324,12 +342,19 @@ def _make_render(scalar, k, trace, Geometry):
         if overflow != 0:
             film.overflow[0] = 1
         bg = shd.background
+        if shd.sky.present != 0:
+            bg = vec3(scalar(0.0))  # the sky is in the colour already
         film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
         if prim < 0:
             film.depth[pixel] = scalar(wp.inf)
             film.event_time[pixel] = scalar(wp.nan)
             film.proper_time[pixel] = scalar(wp.nan)
             film.doppler[pixel] = scalar(wp.nan)
+            if shd.sky.present != 0:  # the dome's D = (k.u_cam)/(k.u_lab), k = (1, -n)
+                uc0 = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
+                film.doppler[pixel] = uc0[0]
+                if cam.finite != 0:
+                    film.doppler[pixel] = uc0[0] + n[0] * uc0[1] + n[1] * uc0[2] + n[2] * uc0[3]
             film.object_id[pixel] = 0
             film.source_time[pixel] = scalar(wp.nan)
             film.bounces[pixel] = 0

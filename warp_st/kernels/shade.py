@@ -4,6 +4,9 @@ Pure Warp device code. Lights are at rest in the lab (docs/spec.md §3).
 """
 import warp as wp
 
+from warp_st.kernels.sky import make_sky
+from warp_st.kernels.texture import make_textures
+
 __all__ = ["make_shade"]
 
 
@@ -12,6 +15,8 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
     # event: in float32 1e-4 is ~1000 ulps, far above the rounding of the hit.
     SELF_EPS = 1.0e-4 if wp.types.type_size_in_bytes(scalar) == 4 else 1.0e-9
     FAR = 1.0e30
+    Textures, _inputs = make_textures(scalar)
+    Sky, _radiance, _irradiance = make_sky(scalar)
 
     @wp.struct
     class Shading:
@@ -24,16 +29,23 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         mat_diffuse: wp.array(dtype=vec3)
         mat_emissive: wp.array(dtype=vec3)
         mat_metallic: wp.array(dtype=scalar)
+        tex: Textures  # the materials' textures (kernels/texture.py)
         body_origin: wp.array(dtype=vec4)  # (t_ref, o) relative to the render origin
         body_velocity: wp.array(dtype=vec3)
         body_gamma: wp.array(dtype=scalar)
         body_decoupled: wp.array(dtype=wp.int32)
-        light_kind: wp.array(dtype=wp.int32)  # 0 sphere (point), 1 distant
+        light_kind: wp.array(dtype=wp.int32)  # 0 sphere (radius 0: point), 1 distant, 2 area (rect, disk)
         light_pos: wp.array(dtype=vec3)
         light_dir: wp.array(dtype=vec3)
         light_radiance: wp.array(dtype=vec3)
+        light_radius: wp.array(dtype=scalar)
+        light_first: wp.array(dtype=wp.int32)  # area lights: their samples' range in sample_*
+        light_samples: wp.array(dtype=wp.int32)
+        sample_pos: wp.array(dtype=vec3)
+        sample_weight: wp.array(dtype=scalar)  # area weights (sum: the light's area)
         light_count: int
         background: vec3
+        sky: Sky  # a DomeLight (kernels/sky.py); sky.present 0: the background is the sky
         max_depth: int
         doppler_table: wp.array(dtype=vec3)  # Doppler colour shift table (spectrum.py)
         color_shift: int
@@ -72,16 +84,65 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         return normal
 
     @wp.func
-    def shade(geo: Geometry, shd: Shading, finite: int, prim: int, path: scalar, event: vec4, normal: vec3):
+    def unblocked(geo: Geometry, finite: int, event: vec4, x: vec3, p: vec3, s_min: scalar, tri: int, body: int,
+                  skip_dist: scalar) -> scalar:
+        """1 when the null ray from the hit event back towards the point p at rest reaches it, else 0."""
+        to_p = p - x
+        d = wp.length(to_p)
+        blocker, _bs, _bl, _bv, _bo = trace(geo, event, to_p / d, finite, s_min, d * (scalar(1.0) - scalar(SELF_EPS)),
+                                            tri, body, skip_dist, 1)
+        if blocker < 0:
+            return scalar(1.0)
+        return scalar(0.0)
+
+    @wp.func
+    def sphere_visibility(geo: Geometry, finite: int, event: vec4, x: vec3, c: vec3, r: scalar, l: vec3, d: scalar,
+                          s_min: scalar, tri: int, body: int, skip_dist: scalar) -> scalar:
+        """Unblocked fraction of five shadow rays to the sphere's silhouette disk (its centre and
+        four points at 0.7 of its radius, docs/design/usdlux.md)."""
+        centre = c - l * (r * r / d)
+        rs = scalar(0.7) * r * wp.sqrt(wp.max(scalar(1.0) - r * r / (d * d), scalar(0.0)))
+        a = vec3(scalar(1.0), scalar(0.0), scalar(0.0))
+        if wp.abs(l[0]) > scalar(0.6):
+            a = vec3(scalar(0.0), scalar(1.0), scalar(0.0))
+        e1 = wp.normalize(wp.cross(l, a))
+        e2 = wp.cross(l, e1)
+        vis = unblocked(geo, finite, event, x, centre, s_min, tri, body, skip_dist)
+        vis += unblocked(geo, finite, event, x, centre + rs * e1, s_min, tri, body, skip_dist)
+        vis += unblocked(geo, finite, event, x, centre - rs * e1, s_min, tri, body, skip_dist)
+        vis += unblocked(geo, finite, event, x, centre + rs * e2, s_min, tri, body, skip_dist)
+        vis += unblocked(geo, finite, event, x, centre - rs * e2, s_min, tri, body, skip_dist)
+        return vis / scalar(5.0)
+
+    @wp.func
+    def area_light(geo: Geometry, shd: Shading, finite: int, event: vec4, x: vec3, normal: vec3, li: int,
+                   s_min: scalar, tri: int, body: int, skip_dist: scalar) -> scalar:
+        """sum_i w_i cos cos' / d^2 over the light's unblocked samples (warp_st.core.light_samples)."""
+        back = shd.light_dir[li]
+        total = scalar(0.0)
+        first = shd.light_first[li]
+        for j in range(first, first + shd.light_samples[li]):
+            to_p = shd.sample_pos[j] - x
+            d = wp.length(to_p)
+            l = to_p / d
+            cos_s = wp.dot(normal, l)
+            cos_e = wp.dot(back, l)  # the light emits along -back: towards x when back.l > 0
+            if cos_s > scalar(0.0) and cos_e > scalar(0.0):
+                vis = unblocked(geo, finite, event, x, shd.sample_pos[j], s_min, tri, body, skip_dist)
+                total += vis * shd.sample_weight[j] * cos_s * cos_e / (d * d)
+        return total
+
+    @wp.func
+    def shade(geo: Geometry, shd: Shading, finite: int, prim: int, path: scalar, event: vec4, normal: vec3,
+              diffuse: vec3, emissive: vec3):
         """Emission plus Lambert from lights at rest, each behind a null-ray shadow test.
 
+        ``diffuse`` / ``emissive``: the material's at the hit (textured or constant).
         Without lights the surface shows its unlit albedo (docs/spec.md §3).
         """
         tri = geo.prim_tri[prim]
-        mat = shd.tri_material[tri]
         body = shd.tri_body[tri]
-        diffuse = shd.mat_diffuse[mat]
-        color = shd.mat_emissive[mat]
+        color = emissive
         if shd.light_count == 0:
             return color + diffuse
         x = vec3(event[1], event[2], event[3])
@@ -94,20 +155,36 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         if shd.tri_smooth[tri] != 0:
             skip_dist = scalar(2.0) * shd.tri_size[tri]
         for li in range(shd.light_count):
-            l = shd.light_dir[li]
-            dist = scalar(FAR)
-            atten = scalar(1.0)
-            if shd.light_kind[li] == 0:
-                to_light = shd.light_pos[li] - x
-                dist = wp.length(to_light)
-                l = to_light / dist
-                atten = scalar(1.0) / (dist * dist)
-                dist = dist * (scalar(1.0) - scalar(SELF_EPS))
-            cos_l = wp.dot(normal, l)
-            if cos_l > scalar(0.0):
-                blocker, _bs, _bl, _bv, _bo = trace(geo, event, l, finite, s_min, dist, tri, body, skip_dist, 1)
-                if blocker < 0:
-                    color = color + wp.cw_mul(diffuse, shd.light_radiance[li]) * (cos_l * atten)
+            kind = shd.light_kind[li]
+            if kind == 2:
+                area = area_light(geo, shd, finite, event, x, normal, li, s_min, tri, body, skip_dist)
+                color = color + wp.cw_mul(diffuse, shd.light_radiance[li]) * area
+            else:
+                l = shd.light_dir[li]
+                dist = scalar(FAR)
+                atten = scalar(1.0)
+                radius = scalar(0.0)
+                centre_dist = scalar(0.0)
+                if kind == 0:
+                    to_light = shd.light_pos[li] - x
+                    dist = wp.length(to_light)
+                    centre_dist = dist
+                    l = to_light / dist
+                    atten = scalar(1.0) / (dist * dist)
+                    dist = dist * (scalar(1.0) - scalar(SELF_EPS))
+                    radius = shd.light_radius[li]
+                cos_l = wp.dot(normal, l)
+                if cos_l > scalar(0.0) and centre_dist >= radius:
+                    vis = scalar(0.0)
+                    if radius > scalar(0.0):  # a sphere: seen from outside, shadows from its silhouette
+                        vis = sphere_visibility(geo, finite, event, x, shd.light_pos[li], radius, l, centre_dist,
+                                                s_min, tri, body, skip_dist)
+                    else:
+                        blocker, _bs, _bl, _bv, _bo = trace(geo, event, l, finite, s_min, dist, tri, body, skip_dist, 1)
+                        if blocker < 0:
+                            vis = scalar(1.0)
+                    if vis > scalar(0.0):
+                        color = color + wp.cw_mul(diffuse, shd.light_radiance[li]) * (cos_l * atten) * vis
         return color
 
     @wp.func

@@ -28,20 +28,22 @@ The hit's barycentrics (u, v, 1 - u - v) weigh the triangle's vertices in the me
 index order; the primitive index returned is the global triangle (``prim_tri`` is the
 identity), so the shading reads the same tables as on the prism path.
 
-A body flagged ``body_quadric`` is its exact ellipsoid |Q (r - c)| = 1 in its frame's
-coordinates (spacetime/rigid.py): the ray r(s) = p + s d meets it where a quadratic in s
-vanishes, solved in float64 (``ellipsoid_roots``). Such a hit returns the body's first
-triangle (its material and body for the shading) and, in place of barycentrics, the
-unit lab normal with a 4th component of ANALYTIC (``shade.shading_normal``): the rest
-normal Q^T Q (r - c) taken to the lab by A^-T. A secondary ray leaving the surface
+A body flagged ``body_quadric`` is an exact analytic shape (``kernels/quadrics.py``: an
+ellipsoid, cylinder, cone or capsule) in canonical coordinates q = Q (r - c) of its frame's
+(spacetime/rigid.py): the ray r(s) = p + s d is a line there too, and the shape's interval
+along it comes from quadratics and slabs solved in float64 (``quadric_hit``). Such a hit
+returns the body's first triangle (its material and body for the shading) and, in place
+of barycentrics, the unit lab normal with a 4th component of ANALYTIC
+(``shade.shading_normal``): the canonical normal taken back by Q^T and to the lab by A^-T. A secondary ray leaving the surface
 has a root at its start, within the float32 rounding of the hit event (~1e-7 of the
 path): the self-intersection offset s_min (``shade.SELF_EPS``, 1e-4 of the path) drops
 it, and as the ellipsoid is convex and the ray a straight line in its frame, the other
-root lies behind the ray unless it leaves into the inside.
+root lies behind the ray unless it leaves into the inside (every shape is convex).
 """
 
 import warp as wp
 
+from warp_st.kernels.quadrics import make_quadrics
 from warp_st.kernels.traverse import make_box_ops, make_traverse
 
 __all__ = ["make_trace_rigid", "ANALYTIC"]
@@ -59,6 +61,7 @@ def make_trace_rigid(scalar):
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
     vec16 = wp.types.vector(16, scalar)
+    solid_interval = make_quadrics()
     fmin, fmax, safe_inv, SLAB_GROW = make_box_ops(scalar)
     BIG = 1.0e30
     # A hit on the triangle a secondary ray leaves (skip_tri) is stepped over by this
@@ -85,9 +88,10 @@ def make_trace_rigid(scalar):
         body_start_hi: wp.array(dtype=wp.vec3d)
         body_anchor: wp.array(dtype=wp.vec4d)  # the frame's event relative to the render origin
         body_end: wp.array(dtype=wp.float64)  # the lifetime's end relative to the render origin
-        body_quadric: wp.array(dtype=wp.int32)  # 1: the body is its exact ellipsoid (module docstring)
+        body_quadric: wp.array(dtype=wp.int32)  # >0: the body is that exact shape (kernels/quadrics.py)
         quadric_inv: wp.array(dtype=wp.mat33d)
         quadric_centre: wp.array(dtype=wp.vec3d)
+        quadric_param: wp.array(dtype=wp.vec3d)  # (radius, half height, -) of a cylinder, cone or capsule
         # Motion segments in top-level leaf order: body, lab-time span (t_lo, t_hi) and
         # 4D box, relative to the render origin.
         seg_body: wp.array(dtype=wp.int32)
@@ -157,44 +161,25 @@ def make_trace_rigid(scalar):
         return s0, s1
 
     @wp.func
-    def ellipsoid_roots(q_inv: wp.mat33d, c: wp.vec3d, p: wp.vec3d, d: wp.vec3d):
-        """(found, s1 <= s2): where |q_inv (p + s d - c)| = 1 (float64; the stable form
-        of the quadratic's roots)."""
-        q0 = q_inv * (p - c)
-        qd = q_inv * d
-        a = wp.dot(qd, qd)
-        b = wp.dot(q0, qd)
-        cc = wp.dot(q0, q0) - wp.float64(1.0)
-        disc = b * b - a * cc
-        if a == wp.float64(0.0) or disc < wp.float64(0.0):
-            return 0, wp.float64(0.0), wp.float64(0.0)
-        root = wp.sqrt(disc)
-        k = -b - root
-        if b < wp.float64(0.0):
-            k = -b + root
-        if k == wp.float64(0.0):
-            return 1, wp.float64(0.0), wp.float64(0.0)
-        s1 = k / a
-        s2 = cc / k
-        return 1, wp.min(s1, s2), wp.max(s1, s2)
-
-    @wp.func
-    def ellipsoid_hit(g: Geometry, body: int, p: wp.vec3d, d: wp.vec3d, lo: wp.float64, hi: wp.float64):
-        """(s, lab normal) of the first crossing of ``body``'s ellipsoid in [lo, hi]; s < lo
-        when none."""
+    def quadric_hit(g: Geometry, body: int, p: wp.vec3d, d: wp.vec3d, lo: wp.float64, hi: wp.float64):
+        """(s, lab normal) of the first crossing of ``body``'s analytic shape in [lo, hi]
+        (``kernels/quadrics.py`` in its canonical coordinates q = Q (r - c)); s < lo when
+        none. The normal: the canonical one taken back by Q^T, then to the lab by A^-T."""
         q_inv = g.quadric_inv[body]
-        c = g.quadric_centre[body]
-        found, s1, s2 = ellipsoid_roots(q_inv, c, p, d)
+        q0 = q_inv * (p - g.quadric_centre[body])
+        qd = q_inv * d
+        entry, leave, n_entry, n_leave = solid_interval(g.body_quadric[body], q0, qd, g.quadric_param[body])
         s = lo - wp.float64(1.0)
-        if found != 0:
-            if s1 >= lo and s1 <= hi:
-                s = s1
-            elif s2 >= lo and s2 <= hi:
-                s = s2
+        n = n_entry
+        if entry <= leave:
+            if entry >= lo and entry <= hi:
+                s = entry
+            elif leave >= lo and leave <= hi:  # the ray starts inside the solid
+                s = leave
+                n = n_leave
         normal = vec3(scalar(0.0))
         if s >= lo:
-            rest_normal = wp.transpose(q_inv) * (q_inv * (p + d * s - c))
-            lab = wp.normalize(wp.transpose(g.body_rest[body]) * rest_normal)
+            lab = wp.normalize(wp.transpose(g.body_rest[body]) * (wp.transpose(q_inv) * n))
             normal = vec3(scalar(lab[0]), scalar(lab[1]), scalar(lab[2]))
         return s, normal
 
@@ -246,7 +231,7 @@ def make_trace_rigid(scalar):
                 mesh = g.body_mesh[body]
                 base = g.body_tri_base[body]
                 if g.body_quadric[body] != 0:
-                    s, normal = ellipsoid_hit(g, body, p, d, wp.float64(s_lo), wp.float64(s_hi))
+                    s, normal = quadric_hit(g, body, p, d, wp.float64(s_lo), wp.float64(s_hi))
                     if s >= wp.float64(s_lo):
                         best = scalar(s)
                         best_prim = base

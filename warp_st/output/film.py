@@ -146,6 +146,21 @@ class Image:
         value = getattr(self, spec.attribute)
         return value[..., spec.component] if spec.component is not None else value
 
+    # --- Jupyter ----------------------------------------------------------------------------
+
+    def _repr_png_(self) -> bytes:
+        """Jupyter shows an Image as its beauty (8-bit sRGB, ``warp_st.output.plot``)."""
+        from warp_st.output.plot import beauty_png
+
+        return beauty_png(self)
+
+    def show(self, channel: str | None = None):
+        """A Jupyter view of ``channel`` in false colour with a colour bar labelled with its
+        units (None: the beauty); ``.figure()`` gives the matplotlib figure."""
+        from warp_st.output.plot import ChannelView
+
+        return ChannelView(self, channel)
+
     # --- the file form (used by warp_st.output.exr; no OpenEXR here) ----------------------
 
     def file_channel(self, name: str) -> np.ndarray:

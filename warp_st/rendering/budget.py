@@ -86,6 +86,16 @@ class MemoryRefusal(SceneError):
     """A render whose estimated memory exceeds the limit (bad input: exit 2)."""
 
 
+def texture_bytes(scene: Scene) -> int:
+    """Bytes the textures and the sky map take: each distinct texel array on the host and
+    once more as the kernel's atlas (``device_textures``)."""
+    arrays = {id(t.texels): t.texels for b in scene.bodies for s in b.surfaces
+              for m in (s.material, *s.subset_materials) for t in m.textures if t is not None}
+    if scene.dome is not None and scene.dome.texels is not None:
+        arrays[id(scene.dome.texels)] = scene.dome.texels
+    return 2 * sum(int(a.nbytes) for a in arrays.values())
+
+
 def count_database(scene: Scene, windows, *, fine: bool = True, fraction: float | None = None
                    ) -> tuple[int, int, list[int]]:
     """(tetrahedra, vertices, tetrahedra per body) the extrusion of ``scene`` over ``windows`` makes.
@@ -183,6 +193,9 @@ def check_resources(scene: Scene, windows, *, width: int, height: int, samples: 
     else:
         tets, verts, per_body = count_database(scene, windows, fine=fine, fraction=fraction)
         estimate, what, unit = estimate_bytes(tets, verts, pixels), f"{tets:,} tetrahedra", "tetrahedra"
+    textures = texture_bytes(scene)
+    if textures:
+        estimate, what = estimate + textures, f"{what}, {format_size(textures)} of textures"
     if max_memory is not None and estimate > max_memory:
         biggest = ""
         if per_body and max(per_body) > 0:

@@ -15,13 +15,17 @@ from warp_st.accel.bvh import FlatBVH
 from warp_st.accel.bvh_wide import collapse, wide_boxes
 from warp_st.core.conventions import BOX_PAD_ULPS
 from warp_st.core.doppler_colour import cached_doppler_table
+from warp_st.core.light_samples import area_samples
 from warp_st.core.scene import Light
 from warp_st.kernels import Kernels
+from warp_st.rendering.device_textures import sky_struct, tet_corners, texture_tables
 from warp_st.spacetime.extrude import SpacetimeMesh
 
 __all__ = ["ShadingTables", "StaticArrays", "make_geometry", "set_nodes", "outward", "make_shading"]
 
 _DEVICE = "cpu"
+#: Light.kind -> the shading kernel's light_kind (kernels/shade.py).
+_LIGHT_KIND = {"sphere": 0, "distant": 1, "rect": 2, "disk": 2}
 
 
 class ShadingTables:
@@ -44,6 +48,7 @@ class ShadingTables:
         self.mat_emissive = wp.array(emissive, dtype=k.vec3, device=_DEVICE)
         metallic = np.array([m.metallic for m in mats], dtype=np_scalar).reshape(-1)
         self.mat_metallic = wp.array(metallic, dtype=k.scalar, device=_DEVICE)
+        self.textures = texture_tables(k, tables)
         bodies = tables.bodies
         self.body_velocity = wp.array(
             np.array([b.velocity for b in bodies], dtype=np_scalar).reshape(-1, 3), dtype=k.vec3, device=_DEVICE
@@ -67,6 +72,8 @@ class StaticArrays(ShadingTables):
             self.prism_velocity = velocity[mesh.tri_body[tri]] if len(tri) else np.zeros((0, 3))
         else:
             vidx, tri = mesh.tets, mesh.tet_tri
+            if self.textures.info.shape[0]:  # which triangle corner each tetrahedron vertex is
+                self.textures.prim_corner = wp.array(tet_corners(mesh.tets), dtype=wp.int32, device=_DEVICE)
         self.prim_vidx = wp.array(vidx.astype(np.int32), dtype=wp.vec4i, device=_DEVICE)
         self.prim_tri = wp.array(tri.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         # The kernel traces the 4-wide form of the BVH (bvh_wide.py).
@@ -132,8 +139,10 @@ def make_shading(
     *,
     doppler_color: bool = False,
     searchlight: bool = False,
+    dome=None,
 ):
-    """Shading struct: materials, bodies and lights, positions recentred on ``origin``."""
+    """Shading struct: materials, bodies and lights, positions recentred on ``origin``;
+    ``dome``: the scene's sky (a ``Dome``) or None."""
     ns = static.np_scalar
     s = k.Shading()
     s.vert_normal = static.vert_normal
@@ -145,11 +154,12 @@ def make_shading(
     s.mat_diffuse = static.mat_diffuse
     s.mat_emissive = static.mat_emissive
     s.mat_metallic = static.mat_metallic
+    s.tex = static.textures
     s.body_origin = wp.array((static.body_events - origin).astype(ns).reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
     s.body_velocity = static.body_velocity
     s.body_gamma = static.body_gamma
     s.body_decoupled = static.body_decoupled
-    kinds = np.array([0 if l.kind == "sphere" else 1 for l in lights], dtype=np.int32)
+    kinds = np.array([_LIGHT_KIND[l.kind] for l in lights], dtype=np.int32)
     pos = np.array([l.position for l in lights], dtype=np.float64).reshape(-1, 3) - origin[1:]
     dirs = np.array([l.direction for l in lights], dtype=np.float64).reshape(-1, 3)
     rad = np.array([l.radiance for l in lights], dtype=np.float64).reshape(-1, 3)
@@ -157,8 +167,18 @@ def make_shading(
     s.light_pos = wp.array(pos.astype(ns), dtype=k.vec3, device=_DEVICE)
     s.light_dir = wp.array(dirs.astype(ns), dtype=k.vec3, device=_DEVICE)
     s.light_radiance = wp.array(rad.astype(ns), dtype=k.vec3, device=_DEVICE)
+    s.light_radius = wp.array(np.array([l.radius for l in lights], dtype=ns), dtype=k.scalar, device=_DEVICE)
+    samples = [area_samples(l) for l in lights]
+    counts = np.array([len(w) for _, w in samples], dtype=np.int32)
+    s.light_samples = wp.array(counts, dtype=wp.int32, device=_DEVICE)
+    points = np.concatenate([np.zeros((1, 3))] + [p - origin[1:] for p, _ in samples])  # one pad: never empty
+    weights = np.concatenate([np.zeros(1)] + [w for _, w in samples])
+    s.light_first = wp.array((1 + np.cumsum(counts) - counts).astype(np.int32), dtype=wp.int32, device=_DEVICE)
+    s.sample_pos = wp.array(points.astype(ns), dtype=k.vec3, device=_DEVICE)
+    s.sample_weight = wp.array(weights.astype(ns), dtype=k.scalar, device=_DEVICE)
     s.light_count = len(lights)
     s.background = k.vec3(*[float(x) for x in background])
+    s.sky = sky_struct(k, dome)
     s.max_depth = int(max_depth)
     # the colour table is read (or built, importing the colour library) only when it is used
     table = cached_doppler_table(wp.config.kernel_cache_dir).reshape(-1, 3) if doppler_color else np.zeros((1, 3))

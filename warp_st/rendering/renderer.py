@@ -461,7 +461,7 @@ class Renderer:
         background = self.settings.background or (0.0, 0.0, 0.0)
         shd = make_shading(
             k, self.static, self.scene.lights, origin, background, self.max_depth,
-            doppler_color=self.doppler_color, searchlight=self.searchlight,
+            doppler_color=self.doppler_color, searchlight=self.searchlight, dome=self.scene.dome,
         )
         kcam = make_camera(
             k, cam, self.width, self.height, self._frame_light_speed(cam), samples=self.samples, shutter=self.shutter

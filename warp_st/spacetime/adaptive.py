@@ -106,8 +106,11 @@ def retessellate_sphere(surface, segments: int):
         normals = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
     if det < 0:
         tris = tris[:, [0, 2, 1]]
+    st = None  # a sphere has no st primvar: its textures read the reader's constant fallback
+    if surface.st is not None and len(surface.st):
+        st = np.broadcast_to(np.asarray(surface.st)[:1, :1], (len(tris), 3, 2))
     return dataclasses.replace(surface, points=world, triangles=np.ascontiguousarray(tris, dtype=np.int64),
-                               normals=normals)
+                               normals=normals, st=st)
 
 
 def _camera_stretch(cam) -> float:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from warp_st.core.lorentz import contraction_matrix
-from warp_st.core.scene import Body, Scene, surface_triangles
+from warp_st.core.scene import Body, Scene, surface_keep, surface_triangles
 from warp_st.spacetime.visibility import intervals
 
 __all__ = [
@@ -46,6 +46,9 @@ class TriangleTables:
     tri_smooth: 1 where the triangle interpolates vertex normals, (T,), int32.
     tri_size: longest edge of each contracted triangle, (T,).
     tri_body, tri_material: indices into ``bodies`` / ``materials``, (T,), int32.
+    tri_st: texture coordinates at each triangle's corners, (T, 3, 2): in the order the
+        tracing's barycentrics weigh them (the rigid path: the triangle's own; the 4D
+        extrusion: ascending vertex index, see ``extrude_scene``); zeros untextured.
     """
 
     vertex_normals: np.ndarray
@@ -56,6 +59,7 @@ class TriangleTables:
     tri_material: np.ndarray
     materials: tuple
     bodies: tuple
+    tri_st: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -179,7 +183,8 @@ class BodyTriangles:
     local: the contracted lab positions at the reference time, o + A r, (P, 3);
     normals: contracted shading normals, unit, (P, 3) (zeros on flat surfaces);
     triangles: indices into the points, (T, 3); tri_normal / tri_smooth / tri_size /
-        tri_material: as SpacetimeMesh's, per triangle.
+        tri_material: as SpacetimeMesh's, per triangle; tri_st: each triangle's corner
+        texture coordinates in its own corner order, (T, 3, 2).
     """
 
     rest: np.ndarray
@@ -190,6 +195,14 @@ class BodyTriangles:
     tri_smooth: np.ndarray
     tri_size: np.ndarray
     tri_material: np.ndarray
+    tri_st: np.ndarray
+
+
+def _material_index(material, materials: list, mat_index: dict) -> int:
+    if material not in mat_index:
+        mat_index[material] = len(materials)
+        materials.append(material)
+    return mat_index[material]
 
 
 def body_triangles(body: Body, materials: list, mat_index: dict) -> BodyTriangles | None:
@@ -200,7 +213,8 @@ def body_triangles(body: Body, materials: list, mat_index: dict) -> BodyTriangle
     parts = []
     base = 0
     for surf in body.surfaces:
-        tris = surface_triangles(surf)
+        keep = surface_keep(surf)
+        tris = np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3)[keep]
         if len(tris) == 0:
             continue
         pts = np.asarray(surf.points, dtype=np.float64)
@@ -209,10 +223,12 @@ def body_triangles(body: Body, materials: list, mat_index: dict) -> BodyTriangle
             nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
         else:
             nrm = np.zeros((len(pts), 3))
-        if surf.material not in mat_index:
-            mat_index[surf.material] = len(materials)
-            materials.append(surf.material)
-        parts.append((pts, nrm, tris + base, surf.normals is not None, mat_index[surf.material]))
+        own = (surf.material, *surf.subset_materials)
+        index = np.array([_material_index(m, materials, mat_index) for m in own], dtype=np.int32)
+        tri_mat = index[np.zeros(len(tris), np.int64) if surf.triangle_material is None
+                        else np.asarray(surf.triangle_material, dtype=np.int64)[keep]]
+        st = np.zeros((len(tris), 3, 2)) if surf.st is None else np.asarray(surf.st, dtype=np.float64)[keep]
+        parts.append((pts, nrm, tris + base, surf.normals is not None, tri_mat, st))
         base += len(pts)
     if not parts:
         return None
@@ -229,7 +245,8 @@ def body_triangles(body: Body, materials: list, mat_index: dict) -> BodyTriangle
         rest=rest, local=local, normals=np.concatenate([p[1] for p in parts]), triangles=tris, tri_normal=fn,
         tri_smooth=np.repeat(np.array([1 if p[3] else 0 for p in parts], dtype=np.int32), counts),
         tri_size=longest_edges(local, tris),
-        tri_material=np.repeat(np.array([p[4] for p in parts], dtype=np.int32), counts),
+        tri_material=np.concatenate([p[4] for p in parts]).astype(np.int32),
+        tri_st=np.concatenate([p[5] for p in parts]),
     )
 
 
@@ -246,7 +263,7 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
     materials: list = []
     mat_index: dict = {}
     verts, vnorms, tets, tet_tri, prisms, prism_tri, spans = [], [], [], [], [], [], []
-    tri_normal, tri_smooth, tri_size, tri_body, tri_material = [], [], [], [], []
+    tri_normal, tri_smooth, tri_size, tri_body, tri_material, tri_st = [], [], [], [], [], []
     v_base = 0
     t_base = 0
 
@@ -263,6 +280,8 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
         tri_size.append(bt.tri_size)
         tri_body.append(np.full(n_tri, b_index, dtype=np.int32))
         tri_material.append(bt.tri_material)
+        # The prisms' and tetrahedra's barycentrics weigh the corners in ascending vertex order.
+        tri_st.append(np.take_along_axis(bt.tri_st, np.argsort(tris, axis=1)[:, :, None], axis=1))
         for part in parts:  # each interval on its own
             slices = body_slices(body, part, fine=fine, fraction=fraction)
             ev = _slice_events(bt.local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
@@ -294,6 +313,7 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
         tri_material=cat(tri_material, (0,), np.int32),
         materials=tuple(materials),
         bodies=tuple(scene.bodies),
+        tri_st=cat(tri_st, (0, 3, 2), np.float64),
     )
 
 

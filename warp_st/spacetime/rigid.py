@@ -25,10 +25,11 @@ import numpy as np
 
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Scene
+from warp_st.kernels.quadrics import QUADRIC_CAPSULE, QUADRIC_CONE, QUADRIC_CYLINDER, QUADRIC_SPHERE
 from warp_st.spacetime.extrude import TriangleTables, _body_size, body_triangles
 from warp_st.spacetime.visibility import intervals
 
-__all__ = ["RigidShapes", "rigid_shapes", "ellipsoid", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
+__all__ = ["RigidShapes", "rigid_shapes", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,10 +52,11 @@ class RigidShapes(TriangleTables):
         that frame (queries start where a ray enters it).
     rest_from_lab: A^-1 per body, (B, 3, 3) (identity for decoupled bodies).
     tri_vidx: global vertex indices of each triangle (T, 3).
-    body_quadric: 1 for a body traced as its exact ellipsoid (``rigid_shapes``'s
-        ``exact_quadrics``), else 0, (B,); quadric_inv / quadric_centre: the ellipsoid
-        {r : |quadric_inv (r - quadric_centre)| = 1} in the shape frame's coordinates,
-        (B, 3, 3) and (B, 3) (identity and zero for other bodies).
+    body_quadric: the analytic shape a body is traced as (``rigid_shapes``'s
+        ``exact_quadrics``; ``kernels.quadrics`` codes), else 0, (B,); quadric_inv /
+        quadric_centre / quadric_param: the shape is the canonical solid of that code in
+        q = quadric_inv (r - quadric_centre), r in the shape frame's coordinates, with
+        (radius, half height, 0), (B, 3, 3), (B, 3), (B, 3) (identity, zeros otherwise).
     """
 
     shape_rest: tuple
@@ -74,6 +76,7 @@ class RigidShapes(TriangleTables):
     body_quadric: np.ndarray
     quadric_inv: np.ndarray
     quadric_centre: np.ndarray
+    quadric_param: np.ndarray
 
     @property
     def triangle_count(self) -> int:
@@ -85,20 +88,46 @@ class RigidShapes(TriangleTables):
 REST_BOX_PAD = 1.0e-6
 
 
-def ellipsoid(surface):
-    """(M, t) of a UsdGeom.Sphere surface (``Surface.sphere``): its points are M u + t for
-    the unit vectors u (column vectors; the reader's matrix acts on row vectors)."""
-    radius, m = surface.sphere
-    m = np.asarray(m, dtype=np.float64).reshape(4, 4)
-    return radius * m[:3, :3].T, m[3, :3].copy()
+#: Canonical coordinates (kernels/quadrics.py) put a shape's axis along z: the rows of
+#: the permutation that does it for each USD axis.
+_AXIS_TO_Z = {"X": [1, 2, 0], "Y": [2, 0, 1], "Z": [0, 1, 2]}
+_KINDS = {"sphere": QUADRIC_SPHERE, "cylinder": QUADRIC_CYLINDER, "cone": QUADRIC_CONE, "capsule": QUADRIC_CAPSULE}
+
+
+def analytic_shape(surface):
+    """(kind code, M, t, param) of a surface's analytic shape, or None: its points are
+    M q + t for q in the canonical solid of ``kernels/quadrics.py`` (column vectors; the
+    reader's matrices act on row vectors), param = (radius, half height, 0)."""
+    if surface.sphere is not None:
+        radius, m = surface.sphere
+        m = np.asarray(m, dtype=np.float64).reshape(4, 4)
+        return QUADRIC_SPHERE, radius * m[:3, :3].T, m[3, :3].copy(), np.zeros(3)
+    if surface.quadric is not None:
+        kind, axis, radius, height, m = surface.quadric
+        m = np.asarray(m, dtype=np.float64).reshape(4, 4)
+        to_z = np.eye(3)[_AXIS_TO_Z[axis]]  # q = to_z @ local
+        return _KINDS[kind], m[:3, :3].T @ to_z.T, m[3, :3].copy(), np.array([radius, 0.5 * height, 0.0])
+    return None
+
+
+def _canonical_half_extent(kind: int, param: np.ndarray) -> np.ndarray:
+    r, h = param[0], param[1]
+    if kind == QUADRIC_SPHERE:
+        return np.ones(3)
+    return np.array([r, r, h + r if kind == QUADRIC_CAPSULE else h])
 
 
 def quadric_body(body, exact: bool) -> bool:
-    """True when ``body`` is traced as its exact ellipsoid: quadrics asked for and the
-    body's one surface a UsdGeom.Sphere with an invertible transform."""
-    if not exact or len(body.surfaces) != 1 or body.surfaces[0].sphere is None:
+    """True when ``body`` is traced as its exact analytic shape: quadrics asked for and the
+    body's one surface an untextured UsdGeom.Sphere, Cylinder, Cone or Capsule of one
+    material with an invertible transform."""
+    if not exact or len(body.surfaces) != 1:
         return False
-    return abs(float(np.linalg.det(ellipsoid(body.surfaces[0])[0]))) > 1e-300
+    surface = body.surfaces[0]
+    if any(t is not None for t in surface.material.textures) or surface.triangle_material is not None:
+        return False  # an analytic hit has no st and no face: textured or per-face shading keeps triangles
+    shape = analytic_shape(surface)
+    return shape is not None and abs(float(np.linalg.det(shape[1]))) > 1e-300
 
 
 def all_exact_quadrics(scene: Scene) -> bool:
@@ -110,9 +139,9 @@ def all_exact_quadrics(scene: Scene) -> bool:
 def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
     """The shapes and shading tables of every body of ``scene`` (no frame enters).
 
-    With ``exact_quadrics`` a body whose one surface is a UsdGeom.Sphere is traced as
-    that ellipsoid (``body_quadric``): its boxes are the ellipsoid's, and its triangles
-    serve only its shading tables (material, body) and the tables' bookkeeping.
+    With ``exact_quadrics`` a body whose one surface is a UsdGeom.Sphere, Cylinder, Cone
+    or Capsule is traced as that exact shape (``body_quadric``): its boxes are the
+    shape's, and its triangles serve only its shading tables (material, body).
 
     Frames. A shape used by several bodies (instances: the same triangles at the same
     place relative to each body's pivot) is held once, in body coordinates about the
@@ -148,7 +177,9 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
     quadric = np.zeros(n_bodies, np.int32)
     quadric_inv = np.tile(np.eye(3), (n_bodies, 1, 1))
     quadric_centre = np.zeros((n_bodies, 3))
-    tables = {k: [] for k in ("normals", "vidx", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material")}
+    quadric_param = np.zeros((n_bodies, 3))
+    tables = {k: [] for k in ("normals", "vidx", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material",
+                              "tri_st")}
     n_tri = n_vert = 0
     for i, (body, bt, key) in enumerate(zip(scene.bodies, found, keys)):
         tri_base[i], vert_base[i] = n_tri, n_vert
@@ -172,17 +203,22 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
         pad = REST_BOX_PAD * (1.0 + float(np.abs(rest).max()))
         rest_lo[i], rest_hi[i] = rest.min(axis=0) - pad, rest.max(axis=0) + pad
         if quadric_body(body, exact_quadrics):
-            # The ellipsoid M u + t, held in the shape's frame: its centre moves as the
-            # points did. Boxes: the extent of M u along axis k is |row k of M|.
-            m, t = ellipsoid(body.surfaces[0])
+            # The shape M q + t, held in the shape's frame: its centre moves as the points
+            # did. Boxes: the extent of M q over the canonical box |q_k| <= e_k along axis
+            # k is sum_j |M_kj| e_j (the sphere's exact: |row k of M|).
+            kind, m, t, param = analytic_shape(body.surfaces[0])
             origin = np.asarray(body.origin, dtype=np.float64)
             centre = t - origin + (rest[0] - bt.rest[0])
-            quadric[i], quadric_inv[i], quadric_centre[i] = 1, np.linalg.inv(m), centre
-            half = np.linalg.norm(m, axis=1)
+            quadric[i], quadric_inv[i], quadric_centre[i], quadric_param[i] = kind, np.linalg.inv(m), centre, param
+            a = np.linalg.inv(rest_from_lab[i])
+            if kind == QUADRIC_SPHERE:
+                half, lab_half = np.linalg.norm(m, axis=1), np.linalg.norm(a @ m, axis=1)
+            else:
+                e = _canonical_half_extent(kind, param)
+                half, lab_half = np.abs(m) @ e, np.abs(a @ m) @ e
             pad = REST_BOX_PAD * (1.0 + float(np.abs(centre).max() + half.max()))
             rest_lo[i], rest_hi[i] = centre - half - pad, centre + half + pad
-            a = np.linalg.inv(rest_from_lab[i])
-            lab_centre, lab_half = origin + a @ (t - origin), np.linalg.norm(a @ m, axis=1)
+            lab_centre = origin + a @ (t - origin)
             box_lo[i], box_hi[i] = lab_centre - lab_half, lab_centre + lab_half
         tables["normals"].append(bt.normals)
         tables["vidx"].append(bt.triangles + n_vert)
@@ -191,6 +227,7 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
         tables["tri_size"].append(bt.tri_size)
         tables["tri_body"].append(np.full(len(bt.triangles), i, np.int32))
         tables["tri_material"].append(bt.tri_material)
+        tables["tri_st"].append(bt.tri_st)
         n_tri += len(bt.triangles)
         n_vert += len(bt.local)
     # Each body's queries start where the ray enters the rest box of its whole frame.
@@ -209,11 +246,11 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
         body_tri_base=tri_base, body_vert_base=vert_base, body_box_lo=box_lo, body_box_hi=box_hi,
         body_frame=frame[frame_of], body_rest_lo=rest_lo, body_rest_hi=rest_hi, body_start_lo=start_lo,
         body_start_hi=start_hi, rest_from_lab=rest_from_lab, body_quadric=quadric, quadric_inv=quadric_inv,
-        quadric_centre=quadric_centre, vertex_normals=cat("normals", (0, 3), np.float64),
+        quadric_centre=quadric_centre, quadric_param=quadric_param, vertex_normals=cat("normals", (0, 3), np.float64),
         tri_vidx=cat("vidx", (0, 3), np.int32), tri_normal=cat("tri_normal", (0, 3), np.float64),
         tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), np.float64),
         tri_body=cat("tri_body", (0,), np.int32), tri_material=cat("tri_material", (0,), np.int32),
-        materials=tuple(materials), bodies=tuple(scene.bodies),
+        materials=tuple(materials), bodies=tuple(scene.bodies), tri_st=cat("tri_st", (0, 3, 2), np.float64),
     )
 
 

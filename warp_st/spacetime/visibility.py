@@ -416,11 +416,14 @@ def _occluder_windows(scene, body, m0, rho, sources, infinite):
             lo -= 1e-12 * (1.0 + np.abs(lo)) / (1.0 + float(v @ l))  # a lower bound past rounding
             axis = np.broadcast_to(l, centre.shape)
         else:
-            L = np.asarray(light.position, dtype=np.float64)
-            k_lo = t_lo - np.linalg.norm(centre - L, axis=1) - radius - rho
+            # shadow rays end within the light's extent e of L: each stays within R + e of
+            # the segment C L and leaves no earlier than t - |C - L| - R - e
+            L, e = np.asarray(light.position, dtype=np.float64), light.extent
+            k_lo = t_lo - np.linalg.norm(centre - L, axis=1) - radius - rho - e
             lo = t_ref + _retarded_roots(m0 - L, v, k_lo - t_ref)
             axis = L - centre
-        near_lo, near_hi = _near_axis_windows(m0, v, t_ref, centre, axis, radius + rho)
+        near_lo, near_hi = _near_axis_windows(m0, v, t_ref, centre, axis,
+                                              radius + rho + (0.0 if light.kind == "distant" else light.extent))
         los.append(np.maximum(lo, near_lo))
         his.append(np.minimum(t_hi + rho, near_hi))
     lo, hi = np.concatenate(los), np.concatenate(his)

@@ -122,12 +122,16 @@ _SHAPE = {
     "Plane": {"width", "length", "axis"},
 }
 _LIGHT = _XFORMABLE | {"inputs:intensity", "inputs:exposure", "inputs:color", "inputs:enableColorTemperature",
-                       "inputs:colorTemperature"}
+                       "inputs:colorTemperature", "inputs:normalize", "inputs:diffuse"}
 #: What each prim type's honoured attributes are (xformOp:* always are).
 HONOURED = {
     **{kind: _GPRIM | names for kind, names in _SHAPE.items()},
-    "SphereLight": _LIGHT,
-    "DistantLight": _LIGHT,
+    "SphereLight": _LIGHT | {"inputs:radius", "treatAsPoint"},
+    "DistantLight": _LIGHT | {"inputs:angle"},
+    "RectLight": _LIGHT | {"inputs:width", "inputs:height"},
+    "DiskLight": _LIGHT | {"inputs:radius"},
+    # the sky (usd/dome.py); guideRadius only draws a guide
+    "DomeLight": _LIGHT | {"inputs:texture:file", "inputs:texture:format", "guideRadius"},
     # clippingRange / focusDistance / stereoRole change nothing a ray tracer without clipping,
     # depth of field or stereo would draw
     "Camera": _XFORMABLE | {"focalLength", "horizontalAperture", "verticalAperture", "horizontalApertureOffset",
@@ -142,12 +146,8 @@ _WHY = {
     "velocities": "motion from velocities is not rendered",
     "accelerations": "motion from accelerations is not rendered",
     "angularVelocities": "motion from angular velocities is not rendered",
-    "inputs:radius": "the light is drawn as a point: its radius is not honoured",
-    "treatAsPoint": "the light is drawn as a point",
-    "inputs:normalize": "normalize is not honoured",
-    "inputs:angle": "a distant light's angle is not honoured (its shadows are sharp)",
-    "inputs:diffuse": "the light's diffuse multiplier is not honoured",
-    "inputs:specular": "the light's specular multiplier is not honoured",
+    "inputs:texture:file": "a RectLight's texture is not honoured (it emits its colour)",
+    "inputs:specular": "the light's specular multiplier is not honoured (surfaces are Lambert and mirrors)",
     "fStop": "depth of field is not rendered",
     "exposure": "camera exposure is not applied",
     "shutter:open": "the camera shutter is not used (spacetime:shutter on the render settings is)",
@@ -155,7 +155,7 @@ _WHY = {
     "clippingPlanes": "clipping planes are not applied",
 }
 _WHY_PREFIX = {"inputs:shaping:": "light shaping is not supported",
-               "inputs:shadow:": "shadow controls are not supported (every light casts sharp shadows)",
+               "inputs:shadow:": "shadow controls are not supported (every light casts shadows)",
                "exposure:": "camera exposure is not applied"}
 #: Relationships whose targets change the picture but are not honoured.
 _RELATIONSHIP_WHY = {"light:filters": "light filters are not supported",

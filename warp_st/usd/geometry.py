@@ -23,6 +23,7 @@ from warp_st.usd import attributes as A
 from warp_st.usd.attributes import DEFAULT_TIME, Where
 from warp_st.usd.diagnostics import Notes, check_prim
 from warp_st.usd.materials import MaterialReader
+from warp_st.usd.textures import corner_st
 
 __all__ = [
     "SUPPORTED_GPRIMS",
@@ -186,7 +187,7 @@ class GprimReader:
         if local is None:
             return None
         self.check(prim)  # what it authors (and its ancestors) that is not honoured
-        points, triangles, normals = local
+        points, triangles, normals, topology = local
         if world_from_local is None:
             world_from_local = world_transform(self.where, prim, lambda: self.xf.GetLocalToWorldTransform(prim),
                                                self.where.time)
@@ -204,14 +205,44 @@ class GprimReader:
         if prim.IsA(UsdGeom.Sphere):  # the analytic shape, for re-tessellation at the render's resolution
             radius = A.real(self.where, prim, "radius", 1.0, positive=True)
             sphere = (float(radius), np.array(world_from_local, dtype=np.float64).reshape(4, 4))
+        material = self.material(prim)
+        subsets = self.material.subsets(prim) if topology is not None else []
+        triangle_material = None
+        if subsets:  # per-face materials: later subsets win where they overlap
+            triangle_material = np.zeros(len(triangles), np.int32)
+            for k, (faces, _m) in enumerate(subsets):
+                triangle_material[np.isin(topology[1], faces)] = k + 1
+        textures = [t for m in (material, *(m for _f, m in subsets)) for t in m.textures if t is not None]
+        st = None
+        if textures:
+            st = corner_st(self.where, self.notes, prim, textures[0], len(triangles), topology)
+            if np.linalg.det(np.array(world_from_local, dtype=np.float64).reshape(4, 4)[:3, :3]) < 0:
+                st = st[:, [0, 2, 1]]  # transform_surface reversed the winding
         return Surface(
             prim_path=label or str(prim.GetPath()),
             points=points,
             triangles=triangles,
-            material=self.material(prim),
+            material=material,
             normals=normals,
             sphere=sphere,
+            quadric=self._quadric(prim, world_from_local),
+            st=st,
+            subset_materials=tuple(m for _f, m in subsets),
+            triangle_material=triangle_material,
         )
+
+    def _quadric(self, prim, world_from_local):
+        """A Cylinder, Cone or Capsule's analytic shape (``Surface.quadric``), else None."""
+        kind = str(prim.GetTypeName())
+        if kind not in ("Cylinder", "Cone", "Capsule"):
+            return None
+        w = self.where
+        radius = A.real(w, prim, "radius", 0.5 if kind == "Capsule" else 1.0, minimum=0.0)
+        height = A.real(w, prim, "height", 1.0 if kind == "Capsule" else 2.0, minimum=0.0)
+        if radius == 0.0 or (height == 0.0 and kind != "Capsule"):
+            return None
+        return (kind.lower(), A.token(w, prim, "axis", ("X", "Y", "Z"), "Z"), float(radius), float(height),
+                np.array(world_from_local, dtype=np.float64).reshape(4, 4))
 
     def check(self, prim) -> None:
         """What the prim and its ancestors author that is not honoured (once per prim)."""
@@ -228,14 +259,15 @@ class GprimReader:
         kind = str(prim.GetTypeName())
         if prim.IsA(UsdGeom.Sphere):
             radius = A.real(w, prim, "radius", 1.0, positive=True)
-            return tessellate.sphere(radius)
+            return (*tessellate.sphere(radius), None)
         if prim.IsA(UsdGeom.Cube):
             points, triangles = tessellate.cube(A.real(w, prim, "size", 2.0, positive=True))
-            return points, triangles, None
+            return points, triangles, None, None
         if prim.IsA(UsdGeom.Mesh):
             return self._mesh(prim)
         if kind in _SIZE_ATTRIBUTE:
-            return self._shape(prim, kind)
+            shape = self._shape(prim, kind)
+            return None if shape is None else (*shape, None)
         self.notes.warn(prim, None, f"{kind or 'untyped'} gprims are not rendered; skipped", "UnsupportedPrim")
         return None
 
@@ -260,7 +292,8 @@ class GprimReader:
         return tessellate.cylinder(bottom, top, height, axis)
 
     def _mesh(self, prim):
-        """points / faceVertexCounts / faceVertexIndices, validated, fan-triangulated, holes removed."""
+        """points / faceVertexCounts / faceVertexIndices, validated, fan-triangulated, holes
+        removed; with the topology primvars are placed by (``textures.corner_st``)."""
         w = self.where
         points = A.vec3_array(w, prim, "points")
         counts = A.int_array(w, prim, "faceVertexCounts")
@@ -290,13 +323,14 @@ class GprimReader:
         if len(corners) == 0:
             return None
         normals, per_corner = self._normals(prim, len(points), counts, len(indices))
+        if UsdGeom.Mesh(prim).GetOrientationAttr().Get(w.time) == UsdGeom.Tokens.leftHanded:
+            corners = corners[:, [0, 2, 1]]
+        topology = (corners, faces, indices, len(points), len(counts))
         if per_corner:  # faceVarying / uniform normals: one vertex per face corner, at the same place
             points, triangles = points[indices], corners
         else:
             triangles = indices[corners]
-        if UsdGeom.Mesh(prim).GetOrientationAttr().Get(w.time) == UsdGeom.Tokens.leftHanded:
-            triangles = triangles[:, [0, 2, 1]]
-        return points, np.ascontiguousarray(triangles, dtype=np.int64), normals
+        return points, np.ascontiguousarray(triangles, dtype=np.int64), normals, topology
 
     def _holes(self, prim):
         try:

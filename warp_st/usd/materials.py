@@ -1,12 +1,18 @@
 """Bound UsdPreviewSurface materials → :class:`Material`, with ``displayColor`` as the fallback.
 
-Honoured: a UsdPreviewSurface on the material's universal ``outputs:surface`` (bound for
-the ``full`` purpose), its ``diffuseColor``, ``emissiveColor`` and ``metallic`` (the
-weight of a perfect mirror, docs/spec.md §2). Everything else a bound material says is a
-warning naming the prim and the attribute (``warp_st.usd.diagnostics``): other shaders
-and render contexts (MaterialX), inputs driven by textures or other shaders, the other
-UsdPreviewSurface inputs when they differ from the shader's defaults, per-face
-(GeomSubset) bindings, per-vertex display colours. A value of the wrong type is a warning
+Bindings are resolved by USD (``UsdShade.MaterialBindingAPI.ComputeBoundMaterial``):
+direct and collection-based bindings, inherited down the hierarchy, binding strength.
+The purpose is ``full`` (a final-frame renderer), then ``preview`` when a prim has no
+full or all-purpose binding. GeomSubsets of the ``materialBind`` family bind their
+faces' own materials (:meth:`MaterialReader.subsets`).
+
+Honoured: a UsdPreviewSurface on the material's universal ``outputs:surface``, its
+``diffuseColor``, ``emissiveColor`` and ``metallic`` (the weight of a perfect mirror,
+docs/spec.md §2), each a constant or a ``UsdUVTexture`` (``warp_st.usd.textures``).
+Everything else a bound material says is a warning naming the prim and the attribute
+(``warp_st.usd.diagnostics``): other shaders and render contexts (MaterialX), inputs
+driven by other shaders, the other UsdPreviewSurface inputs when they differ from the
+shader's defaults, per-vertex display colours. A value of the wrong type is a warning
 too, and the default is used.
 """
 from __future__ import annotations
@@ -17,10 +23,11 @@ import threading
 import numpy as np
 from pxr import Sdr, UsdGeom, UsdShade
 
-from warp_st.core.scene import Material, SceneError
+from warp_st.core.scene import Material, SceneError, Texture
 from warp_st.usd import attributes as A
 from warp_st.usd.attributes import Where
 from warp_st.usd.diagnostics import Notes, same_value
+from warp_st.usd.textures import TextureReader
 
 __all__ = ["MaterialReader", "preview_defaults"]
 
@@ -54,22 +61,45 @@ class MaterialReader:
         self.where = where
         self.notes = notes
         self._by_material: dict[str, Material | None] = {}
+        self._texture = TextureReader(where, notes)
 
     def __call__(self, prim) -> Material:
+        found = self._bound(prim)
+        return found if found is not None else self._display_color(prim)
+
+    def subsets(self, prim) -> list[tuple[np.ndarray, Material]]:
+        """(face indices, material) of each ``materialBind`` GeomSubset of ``prim`` that
+        binds a UsdPreviewSurface material (the faces of the others keep the gprim's)."""
+        out = []
+        for subset in UsdShade.MaterialBindingAPI(prim).GetMaterialBindSubsets():
+            found = self._bound(subset.GetPrim(), keep_unusable=False)
+            if found is None:
+                continue
+            try:
+                faces = A.int_array(self.where, subset.GetPrim(), "indices")
+            except SceneError as exc:
+                self.notes.value_error(exc, "the subset's faces keep the mesh's material")
+                continue
+            if faces is not None and len(faces):
+                out.append((faces, found))
+        return out
+
+    def _bound(self, prim, keep_unusable: bool = True) -> Material | None:
+        """The material bound to ``prim`` (purpose full, else preview), None without one.
+        A bound material whose shading cannot be used gives the prim's displayColor under
+        the material's name (its CryptoMaterial), unless ``keep_unusable`` is False."""
         binding = UsdShade.MaterialBindingAPI(prim)
-        for subset in binding.GetMaterialBindSubsets():
-            if UsdShade.MaterialBindingAPI(subset.GetPrim()).GetDirectBinding().GetMaterial():
-                self.notes.warn(subset.GetPrim(), "material:binding", "per-face materials (GeomSubset bindings) are "
-                                "not supported yet; the mesh's own material is used for every face", "NotHonoured")
         material, _ = binding.ComputeBoundMaterial(UsdShade.Tokens.full)
-        if material:
-            key = str(material.GetPath())
-            if key not in self._by_material:
-                self._by_material[key] = self._preview_surface(material)
-            if self._by_material[key] is not None:
-                return self._by_material[key]
-            return dataclasses.replace(self._display_color(prim), prim_path=key)  # still its CryptoMaterial
-        return self._display_color(prim)
+        if not material:
+            material, _ = binding.ComputeBoundMaterial(UsdShade.Tokens.preview)
+        if not material:
+            return None
+        key = str(material.GetPath())
+        if key not in self._by_material:
+            self._by_material[key] = self._preview_surface(material)
+        if self._by_material[key] is None and keep_unusable:  # displayColor, still its CryptoMaterial
+            return dataclasses.replace(self._display_color(prim), prim_path=key)
+        return self._by_material[key]
 
     def _preview_surface(self, material) -> Material | None:
         source = material.ComputeSurfaceSource()
@@ -92,44 +122,63 @@ class MaterialReader:
                             f"UsdPreviewSurface, which is the only one supported; {instead}", "UnsupportedShader")
             return None
         defaults = Material()
+        diffuse, diffuse_tex = self._input(shader, "diffuseColor", 3, defaults.diffuse)
+        emissive, emissive_tex = self._input(shader, "emissiveColor", 3, defaults.emissive)
+        metallic, metallic_tex = self._input(shader, "metallic", 1, (defaults.metallic,))
+        textures = [t for t in (diffuse_tex, emissive_tex, metallic_tex) if t is not None]
+        if len({t.primvar for t in textures}) > 1:
+            self.notes.warn(shader.GetPrim(), "inputs", "its textures read different st primvars "
+                            f"({', '.join(sorted({repr(t.primvar) for t in textures}))}); one st per surface is "
+                            f"supported: {textures[0].primvar!r} is used for all", "NotHonoured")
+        elif len({None if t.st_transform is None else t.st_transform.tobytes() for t in textures}) > 1:
+            self.notes.warn(shader.GetPrim(), "inputs", "its textures transform st differently (UsdTransform2d); "
+                            "one st per surface is supported: the first texture's is used for all", "NotHonoured")
         material_out = Material(
-            diffuse=tuple(self._input(shader, "diffuseColor", 3, defaults.diffuse)),
-            emissive=tuple(self._input(shader, "emissiveColor", 3, defaults.emissive)),
-            metallic=float(np.clip(self._input(shader, "metallic", 1, (defaults.metallic,))[0], 0.0, 1.0)),
+            diffuse=tuple(diffuse), emissive=tuple(emissive), metallic=float(np.clip(metallic[0], 0.0, 1.0)),
+            diffuse_texture=diffuse_tex, emissive_texture=emissive_tex, metallic_texture=metallic_tex,
             prim_path=str(material.GetPath()),
         )
         self._other_inputs(shader)
         return material_out
 
     def _input(self, shader, name: str, size: int, fallback):
-        """The input's value, following connections to the value-producing attribute.
+        """(the input's value, its Texture or None), following connections to the
+        value-producing attribute.
 
-        A connection to another shader's output (a texture) cannot be evaluated here: a
-        warning, and the input's own authored value, else the UsdPreviewSurface default.
-        A value of the wrong type: a warning, and the default."""
+        A connection to a UsdUVTexture output is a texture (``warp_st.usd.textures``;
+        its fallback when the file cannot be used). A connection to another shader's
+        output cannot be evaluated here: a warning, and the input's own authored value,
+        else the UsdPreviewSurface default. A value of the wrong type: a warning, and
+        the default."""
         inp = shader.GetInput(name)
         if not inp:
-            return [float(x) for x in fallback]
+            return [float(x) for x in fallback], None
         attr = inp.GetAttr()
         producers = inp.GetValueProducingAttributes()
         if producers and UsdShade.Output.IsOutput(producers[0]):
+            source = UsdShade.Shader(producers[0].GetPrim())
+            if source and source.GetShaderId() == "UsdUVTexture":
+                found = self._texture(producers[0], size)
+                if isinstance(found, Texture):
+                    return [float(x) for x in fallback], found
+                return found, None
             self._connected(shader, inp, producers[0], "its own value, else the default, is used")
         elif producers:
             attr = producers[0]
         prim, attr_name = attr.GetPrim(), attr.GetName()
         try:
             if size == 1:
-                return [A.real(self.where, prim, attr_name, fallback[0])]
-            return [float(x) for x in A.vector(self.where, prim, attr_name, size, fallback)]
+                return [A.real(self.where, prim, attr_name, fallback[0])], None
+            return [float(x) for x in A.vector(self.where, prim, attr_name, size, fallback)], None
         except SceneError as exc:
             self.notes.value_error(exc, f"the UsdPreviewSurface default {tuple(fallback)} is used")
-            return [float(x) for x in fallback]
+            return [float(x) for x in fallback], None
 
     def _connected(self, shader, inp, output, instead: str) -> None:
         source = UsdShade.Shader(output.GetPrim())
         source_id = str(source.GetShaderId() or "") if source else ""
-        what = ("textures (UsdUVTexture) are not supported yet" if source_id == "UsdUVTexture"
-                else "shader networks are not evaluated")
+        what = ("textures (UsdUVTexture) are read on diffuseColor, emissiveColor and metallic only"
+                if source_id == "UsdUVTexture" else "shader networks are not evaluated")
         self.notes.warn(shader.GetPrim(), inp.GetFullName(), f"is connected to {output.GetPrim().GetPath()} "
                         f"({source_id or 'no shader id'}): {what}; {instead}", "NotHonoured")
 

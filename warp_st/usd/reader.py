@@ -6,7 +6,7 @@ One traversal in stage order (instance proxies included) collects:
   nearest such ancestor wins); a gprim with no such ancestor is a body of its own,
   at rest, with unbounded lifetime. Bodies with no visible geometry are dropped,
   so objectId = 1 + index counts only what can be seen. A camera is never a body.
-- cameras (UsdGeom.Camera), lights (UsdLux SphereLight / DistantLight) and the
+- cameras (UsdGeom.Camera), lights (UsdLux Sphere, Distant, Rect and DiskLight) and the
   render settings (UsdRender.Settings) with their products and vars
   (``products``).
 
@@ -37,13 +37,15 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdSkel
 
 from warp_st.core.conventions import DEFAULT_RESOLUTION, Precision
-from warp_st.core.limits import MAX_BOUNCES, MAX_MAGNITUDE, MAX_PIXELS, MAX_SAMPLES
+from warp_st.core.limits import MAX_BOUNCES, MAX_PIXELS, MAX_SAMPLES
 from warp_st.core.scene import DEFAULT_CAMERA, Body, Light, RenderSettings, Scene, SceneError, Surface
 from warp_st.usd import attributes as A
 from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
 from warp_st.usd.camera import CameraEvaluator, frame_bounds
 from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
+from warp_st.usd.dome import read_dome
 from warp_st.usd.geometry import GprimReader, is_hidden, world_transform
+from warp_st.usd.lights import SUPPORTED, read_light
 from warp_st.usd.products import read_products
 from warp_st.usd.stage import open_stage, tf_message
 
@@ -84,6 +86,7 @@ class _StageReader:
         self.gprims = GprimReader(self.where, self.xf, self.notes)
         self.bodies: list[_BodyBuilder] = []
         self.lights: list[Light] = []
+        self.domes: list = []  # DomeLight prims: the first is the sky (usd/dome.py)
         self.cameras: list[str] = []
         self.settings_prims: list = []
         self._current = None
@@ -94,6 +97,7 @@ class _StageReader:
         self.notes.count_samples = samples_listable(self.stage)
         composition(self.notes, self.stage)
         self._traverse()
+        dome = read_dome(self.where, self.notes, self.domes, self._world)  # the sky (usd/dome.py)
         settings_prim = self._settings_prim()
         settings = self._render_settings(settings_prim)
         products = () if settings_prim is None else read_products(self.where, self.stage, settings_prim,
@@ -126,6 +130,7 @@ class _StageReader:
             diagnostics=self.notes.items(),
             meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(self.stage)),
             time_codes_per_second=float(self.stage.GetTimeCodesPerSecond()),
+            dome=dome,
         )
 
     def _closing_notes(self, cameras, framing) -> None:
@@ -198,6 +203,9 @@ class _StageReader:
             if prim.IsA(UsdSkel.Root):
                 notes.warn(prim, None, "UsdSkel skinning is not applied: the meshes below render as authored "
                                        "(their bind pose)", "NotHonoured")
+            if prim.HasAPI(UsdLux.MeshLightAPI) or prim.HasAPI(UsdLux.VolumeLightAPI):
+                notes.warn(prim, None, "MeshLightAPI / VolumeLightAPI is not honoured: the prim does not light "
+                                       "the scene", "NotHonoured")
             if prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
                 self._light(prim)
             elif prim.IsA(UsdGeom.PointInstancer):
@@ -222,36 +230,17 @@ class _StageReader:
 
     # -- lights ---------------------------------------------------------------------
     def _light(self, prim) -> None:
-        """SphereLight: a point at its world position; DistantLight: from its local +Z (docs/spec.md §3)."""
-        w = self.where
-        if not (prim.IsA(UsdLux.SphereLight) or prim.IsA(UsdLux.DistantLight)):
-            why = ("environment lighting is not supported yet" if prim.IsA(UsdLux.DomeLight)
-                   else "only SphereLight and DistantLight are")
-            self.notes.warn(prim, None, f"{prim.GetTypeName()} is not supported ({why}); ignored", "UnsupportedPrim")
+        """A UsdLux light as UsdLux defines it (docs/spec.md §3; ``warp_st.usd.lights``); a
+        DomeLight is the sky (``warp_st.usd.dome``)."""
+        if prim.IsA(UsdLux.DomeLight):
+            self.gprims.check(prim)
+            self.domes.append(prim)
             return
-        self.gprims.check(prim)
-        intensity = A.real(w, prim, "inputs:intensity", 1.0, minimum=0.0)
-        exposure = A.real(w, prim, "inputs:exposure", 0.0)
-        color = A.vector(w, prim, "inputs:color", 3, (1.0, 1.0, 1.0))
-        if A.boolean(w, prim, "inputs:enableColorTemperature", False):
-            kelvin = A.real(w, prim, "inputs:colorTemperature", 6500.0, positive=True)
-            color = color * np.array(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
-        with np.errstate(over="ignore", invalid="ignore"):
-            rgb = intensity * color * np.power(2.0, exposure)
-        if not (np.isfinite(rgb).all() and (np.abs(rgb) <= MAX_MAGNITUDE).all()):
-            raise w.error(prim, "inputs:intensity * inputs:color * 2^inputs:exposure",
-                          f"the light's radiance {tuple(rgb.tolist())} is not finite or exceeds {MAX_MAGNITUDE:g}")
-        radiance = tuple(float(c) for c in rgb)
-        world = self._world(prim)
-        if prim.IsA(UsdLux.SphereLight):
-            position = tuple(float(c) for c in _translation(world))
-            self.lights.append(Light("sphere", radiance, position=position, prim_path=str(prim.GetPath())))
-            return
-        z = np.array(world.GetRow3(2), dtype=np.float64)
-        if not np.linalg.norm(z) > 0.0:
-            raise w.error(prim, "xformOpOrder", "the world transform is singular (no +Z axis)")
-        direction = tuple(float(c) for c in z / np.linalg.norm(z))
-        self.lights.append(Light("distant", radiance, direction=direction, prim_path=str(prim.GetPath())))
+        if str(prim.GetTypeName()) in SUPPORTED:
+            self.gprims.check(prim)
+        light = read_light(self.where, prim, self._world(prim), self.notes)
+        if light is not None:
+            self.lights.append(light)
 
     # -- render settings ------------------------------------------------------------
     def _settings_prim(self):

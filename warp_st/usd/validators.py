@@ -39,6 +39,7 @@ from warp_st.core.scene import SceneError
 from warp_st.usd.attributes import MASKED, SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
 from warp_st.usd.camera import CameraEvaluator
 from warp_st.usd.geometry import SUPPORTED_GPRIMS, GprimReader, is_hidden, world_transform
+from warp_st.usd.lights import SUPPORTED
 from warp_st.usd.materials import preview_defaults
 from warp_st.usd.stage import tf_message
 
@@ -265,7 +266,7 @@ def _light(prim) -> list:
     if _pruned(prim) or _hidden(prim):
         return []
     stage = prim.GetStage()
-    if not (prim.IsA(UsdLux.SphereLight) or prim.IsA(UsdLux.DistantLight)):
+    if str(prim.GetTypeName()) not in SUPPORTED:
         return []  # ignored: a warning of the reader's
     from warp_st.usd.reader import _StageReader
 
@@ -340,7 +341,7 @@ def _stage(stage) -> list:
 _VALIDATORS = {
     "warpSt:SpacetimeBody": ("prim", _spacetime_body, "SpacetimeBodyAPI values are valid (docs/spec.md §2)."),
     "warpSt:Geometry": ("prim", _geometry, "The data of the gprims and PointInstancers read can be rendered."),
-    "warpSt:Light": ("prim", _light, "SphereLight and DistantLight values are valid."),
+    "warpSt:Light": ("prim", _light, "SphereLight, DistantLight, RectLight and DiskLight values are valid."),
     "warpSt:Stage": ("stage", _stage, "Render settings and cameras (at the stage's time codes) are valid."),
 }
 

@@ -1,4 +1,7 @@
-"""The PNGs of ``warp-st inspect``: one channel in false colour, the beauty, a contact sheet.
+"""Pictures of images: one channel in false colour, the beauty, a contact sheet.
+
+They serve ``warp-st inspect``'s PNGs and Jupyter (``Image._repr_png_``, ``Image.show``:
+:class:`ChannelView`), so scripted studies need no plotting code of their own.
 
 Colour: each AOV in a colour map with a colour bar titled with its units
 (``warp_st.output.film.channel_spec(name).units``); the Doppler factor on a logarithmic
@@ -10,6 +13,7 @@ scale across its frames. PNGs are written atomically.
 """
 from __future__ import annotations
 
+import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,7 +41,7 @@ def srgb(image) -> np.ndarray:
 
 def spec_of(name: str):
     """The docs/spec.md §4 registry entry of ``name``; None for an extra (renamed RenderVar) channel."""
-    from warp_st.output.film import channel_spec
+    from warp_st.output.channels import channel_spec
 
     try:
         return channel_spec(name)
@@ -230,3 +234,35 @@ def write_contact_sheet(images, names, channel: str, png_path: Path, columns: in
     finally:
         _pyplot().close(fig)
     return shape
+
+
+def beauty_png(image) -> bytes:
+    """The beauty as 8-bit sRGB PNG bytes, one pixel per pixel (Jupyter's ``_repr_png_``)."""
+    buffer = io.BytesIO()
+    _pyplot().imsave(buffer, srgb(image), format="png")
+    return buffer.getvalue()
+
+
+class ChannelView:
+    """What ``Image.show(name)`` returns: Jupyter draws it as :func:`channel_figure` (false
+    colour, a colour bar with the units); ``name`` None shows the beauty."""
+
+    def __init__(self, image, name: str | None = None, title: str = "Image"):
+        if name is not None:
+            image.channel(name)  # an unknown name fails here, not inside Jupyter's display
+        self.image, self.name, self.title = image, name, title
+
+    def figure(self):
+        """The matplotlib figure (the caller closes it); None for the beauty."""
+        return None if self.name is None else channel_figure(self.image, self.title, self.name)
+
+    def _repr_png_(self) -> bytes:
+        if self.name is None:
+            return beauty_png(self.image)
+        fig = self.figure()
+        try:
+            buffer = io.BytesIO()
+            fig.savefig(buffer, format="png")
+            return buffer.getvalue()
+        finally:
+            _pyplot().close(fig)
