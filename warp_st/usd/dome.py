@@ -13,15 +13,15 @@ without shadowing.
 from __future__ import annotations
 
 import numpy as np
-from pxr import Sdf, UsdLux
+from pxr import Sdf
 
-from warp_st.core.limits import MAX_MAGNITUDE
 from warp_st.core.scene import Dome, SceneError
 from warp_st.core.sky_irradiance import irradiance_coefficients
 from warp_st.usd import attributes as A
 from warp_st.usd.attributes import Where
 from warp_st.usd.diagnostics import Notes
 from warp_st.usd.images import ImageError, read_image
+from warp_st.usd.lights import emission
 
 __all__ = ["read_dome", "DOME_FORMATS"]
 
@@ -38,17 +38,7 @@ def read_dome(where: Where, notes: Notes, prims: list, world) -> Dome | None:
         notes.warn(extra, None, f"only one DomeLight is the sky ({prims[0].GetPath()}); this one is ignored",
                    "NotHonoured")
     prim = prims[0]
-    intensity = A.real(where, prim, "inputs:intensity", 1.0, minimum=0.0)
-    exposure = A.real(where, prim, "inputs:exposure", 0.0)
-    color = A.vector(where, prim, "inputs:color", 3, (1.0, 1.0, 1.0))
-    if A.boolean(where, prim, "inputs:enableColorTemperature", False):
-        kelvin = A.real(where, prim, "inputs:colorTemperature", 6500.0, positive=True)
-        color = color * np.array(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
-    with np.errstate(over="ignore", invalid="ignore"):
-        rgb = intensity * color * np.power(2.0, exposure)
-    if not (np.isfinite(rgb).all() and (np.abs(rgb) <= MAX_MAGNITUDE).all()):
-        raise where.error(prim, "inputs:intensity * inputs:color * 2^inputs:exposure",
-                          f"the dome's radiance {tuple(rgb.tolist())} is not finite or exceeds {MAX_MAGNITUDE:g}")
+    rgb = emission(where, prim, diffuse=False)
     m = np.array(world(prim), dtype=np.float64).reshape(4, 4)[:3, :3]
     # Row vectors: d_lab = d_local @ M, so d_local = d_lab @ M^-1; as a column-vector
     # matrix acting on d_lab that is (M^-1)^T. Scale and shear are dropped (directions).

@@ -29,7 +29,7 @@ from warp_st.core.limits import MAX_MAGNITUDE
 from warp_st.core.scene import Light
 from warp_st.usd import attributes as A
 
-__all__ = ["SUPPORTED", "read_light", "distant_size_factor"]
+__all__ = ["SUPPORTED", "read_light", "distant_size_factor", "emission"]
 
 #: The UsdLux types rendered; other lights are ignored with a warning.
 SUPPORTED = ("SphereLight", "DistantLight", "RectLight", "DiskLight")
@@ -44,12 +44,13 @@ def distant_size_factor(angle_degrees: float) -> float:
     return math.pi * (s2 if theta <= math.pi / 2 else 2.0 - s2)
 
 
-def _emission(where, prim) -> np.ndarray:
-    """intensity * 2^exposure * color (* blackbody) * diffuse, linear RGB, validated."""
+def emission(where, prim, *, diffuse: bool = True) -> np.ndarray:
+    """intensity * 2^exposure * color (* blackbody) (* diffuse), linear RGB, validated
+    (``diffuse``: the light's ``inputs:diffuse`` multiplier; a dome seen as the sky has none)."""
     intensity = A.real(where, prim, "inputs:intensity", 1.0, minimum=0.0)
     exposure = A.real(where, prim, "inputs:exposure", 0.0)
     color = A.vector(where, prim, "inputs:color", 3, (1.0, 1.0, 1.0))
-    diffuse = A.real(where, prim, "inputs:diffuse", 1.0, minimum=0.0)
+    diffuse = A.real(where, prim, "inputs:diffuse", 1.0, minimum=0.0) if diffuse else 1.0
     if A.boolean(where, prim, "inputs:enableColorTemperature", False):
         kelvin = A.real(where, prim, "inputs:colorTemperature", 6500.0, positive=True)
         color = color * np.array(UsdLux.BlackbodyTemperatureAsRgb(kelvin), dtype=np.float64)
@@ -91,7 +92,7 @@ def read_light(where, prim, world: Gf.Matrix4d, notes) -> Light | None:
                else "only " + ", ".join(SUPPORTED[:-1]) + " and " + SUPPORTED[-1] + " are")
         notes.warn(prim, None, f"{prim.GetTypeName()} is not supported ({why}); ignored", "UnsupportedPrim")
         return None
-    rgb = _emission(where, prim)
+    rgb = emission(where, prim)
     normalize = bool(A.boolean(where, prim, "inputs:normalize", False))
     path = str(prim.GetPath())
     position = tuple(float(c) for c in world.ExtractTranslation())
