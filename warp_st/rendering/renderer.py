@@ -29,6 +29,7 @@ from warp_st.output.film import Image, quantize_time
 from warp_st.rendering import database_cache
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
+from warp_st.spacetime.animation import animated_bodies, animation_cuts
 from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
 from warp_st.spacetime.visibility import union, visibility_windows
 
@@ -259,15 +260,24 @@ class Renderer:
         # The shutter moves each camera event along its worldline by up to `shutter`.
         shutter = self.shutter if self.samples > 1 else 0.0
         ends = cams + [c.advanced(shutter) for c in cams if shutter > 0.0]
+        cache = database_cache.for_scene(self.scene)
+        scene = self.scene
+        # Animated bodies (docs/spec.md §2.1): pieces of uniform motion within half a pixel in every frame.
+        self.animation = animation_cuts(self.scene, ends, width=self.width, height=self.height)
+        self.object_of = None  # the scene body of each rendered body (None: the same)
+        if self.animation:  # the cache holds the bodies only: an entry must not keep its scene alive
+            bodies, self.object_of = cache.tessellated(("animation", self.animation),
+                                                       lambda: animated_bodies(self.scene, self.animation))
+            scene = dataclasses.replace(self.scene, bodies=bodies)
         # UsdGeom.Spheres: the cheapest tessellation within half a pixel in every frame.
         self.sphere_segments = sphere_tessellation(
-            self.scene, ends, width=self.width, height=self.height,
+            scene, ends, width=self.width, height=self.height,
             modes=sorted(m == LightSpeed.INFINITE for m in modes), max_depth=self.max_depth)
-        cache = database_cache.for_scene(self.scene)
-        tessellation = tuple(sorted(self.sphere_segments.items()))
-        scene = self.scene
-        if tessellation:  # the cache holds the bodies only: an entry must not keep its scene alive
-            bodies = cache.tessellated(tessellation, lambda: retessellated(self.scene, self.sphere_segments).bodies)
+        tessellation = tuple(sorted(self.sphere_segments.items())) + ((("animation", self.animation),)
+                                                                       if self.animation else ())
+        if self.sphere_segments:
+            pieces = scene
+            bodies = cache.tessellated(tessellation, lambda: retessellated(pieces, self.sphere_segments).bodies)
             scene = dataclasses.replace(self.scene, bodies=bodies)
         # The measuring options build a database of their own, neither looked up nor cached.
         measuring = self.sweep_fraction is not None or self.adjust_windows is not None
@@ -380,6 +390,7 @@ class Renderer:
             "primitive": self.primitive,
             "triangles": s.triangles,
             "motion_segments": s.segments,
+            "animated_segments": sum(len(cuts) + 1 for _, cuts in self.animation),  # pieces before clipping
             "time_segments": ("motion segments (rigid)" if self.primitive == "rigid"
                               else f"sweep {self.sweep_fraction:g} x body size" if self.sweep_fraction is not None
                               else "per triangle" if self.fine_segments else "per body (memory)"),
@@ -475,6 +486,8 @@ class Renderer:
         # Absolute event time: float64(rel) + t_c, quantised exactly as the EXR stores it.
         event_time = quantize_time(rel.astype(np.float64) + origin, origin)
         object_id = film.object_id.numpy().reshape(h, w).astype(np.uint32)
+        if self.object_of is not None:  # an animated body's pieces are one object
+            object_id = np.where(object_id > 0, self.object_of[np.maximum(object_id, 1) - 1] + 1, 0).astype(np.uint32)
         source_rel = film.source_time.numpy().reshape(h, w)
         source_time = quantize_time(source_rel.astype(np.float64) + origin, origin)
         hit = object_id > 0

@@ -1,0 +1,190 @@
+"""Animated rigid bodies as pieces of uniform motion, within half a pixel (docs/spec.md §2.1).
+
+The reader samples each animated body's worldline through USD (``Body.motion``: probes of
+the pivot o(t) and the linear part L(t)). Here each body is cut at probes into pieces;
+a piece over [a, b] moves its pivot uniformly along the chord o(a) -> o(b), holds the
+orientation of its middle probe and (coupled) the contraction of its chord velocity:
+every piece is a uniform-motion body (docs/spec.md §2), so the rest of the renderer (both
+tracing paths, shading, Doppler, proper time) takes it as is. The pieces' world-tubes meet
+at the pivot.
+
+Error. A body point r (about the pivot, |r| <= R) is modelled at o_p(t) + r G_p and USD puts
+it at o(t) + r G(t), G = L A(v) (A the contraction of the instantaneous velocity; I for
+decoupled bodies), so the distance is at most |o_p(t) - o(t)| + R |G_p - G(t)|_F, taken at
+every probe. Pieces are grown greedily while that stays under the tolerance of every probe
+they hold: ``pixels`` x the smallest pixel angle x the nearest distance at which any
+camera can see the body near that probe (its pivot's distance minus R) / the camera's
+angular magnification (``adaptive``'s rule for spheres).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from warp_st.core.scene import Body, Scene
+from warp_st.spacetime.adaptive import _camera_stretch, min_pixel_angle
+
+__all__ = ["animation_cuts", "animated_bodies", "piece_bodies", "body_radius", "FLOOR_FRACTION"]
+
+#: Where no bound applies (a camera inside the body's reach, a decoupled body at >= c) the
+#: tolerance is this fraction of the body's radius about its pivot.
+FLOOR_FRACTION = 1.0e-4
+
+
+def body_radius(body: Body) -> float:
+    """The largest distance of a body point from its pivot at the start time code, R."""
+    if body.motion is None or not body.surfaces:
+        return 0.0
+    pts = np.concatenate([np.asarray(s.points, dtype=np.float64) for s in body.surfaces])
+    return float(np.linalg.norm(pts - body.motion.static_pivot, axis=1).max()) if len(pts) else 0.0
+
+
+def _contractions(v: np.ndarray, decoupled: bool) -> np.ndarray:
+    """A(v) per row of ``v``, (K, 3, 3)."""
+    eye = np.broadcast_to(np.eye(3), (len(v), 3, 3)).copy()
+    if decoupled:
+        return eye
+    speed = np.linalg.norm(v, axis=1)
+    vhat = np.divide(v, speed[:, None], out=np.zeros_like(v), where=speed[:, None] > 0.0)
+    k = 1.0 - np.sqrt(np.clip(1.0 - speed * speed, 0.0, None))
+    return eye - k[:, None, None] * vhat[:, :, None] * vhat[:, None, :]
+
+
+def _tolerances(body: Body, radius: float, cameras, angle: float, pixels: float) -> np.ndarray:
+    """The distance tolerance at each probe of ``body`` (see the module docstring)."""
+    m = body.motion
+    floor = FLOOR_FRACTION * max(radius, 1e-12)
+    stretch = 1.0
+    if body.decoupled:
+        speed = float(np.linalg.norm(m.chord_velocities(), axis=1).max())
+        stretch = np.inf if speed >= 1.0 else 1.0 / np.sqrt(1.0 - speed * speed)
+    tol = np.full(len(m.times), np.inf)
+    for cam in cameras:
+        s = stretch * _camera_stretch(cam)
+        d = np.linalg.norm(m.pivot - np.asarray(cam.position, dtype=np.float64), axis=1) - radius
+        tol = np.minimum(tol, np.where(d > 0.0, pixels * angle * d / s if np.isfinite(s) else 0.0, 0.0))
+    return np.maximum(tol, floor)
+
+
+def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[int, ...]:
+    """Probe indices where ``body``'s pieces begin and end (first 0, last N - 1)."""
+    m = body.motion
+    t, p, lin = m.times, m.pivot, m.linear
+    vel = m.chord_velocities()
+    a = _contractions(vel, body.decoupled)
+    g_left = lin[:-1] @ a  # G at each interval's two probes, with the interval's velocity
+    g_right = lin[1:] @ a
+
+    def error(k: int, j: int) -> float:
+        f = ((t[k:j + 1] - t[k]) / (t[j] - t[k]))[:, None]
+        dev = np.linalg.norm(p[k:j + 1] - (p[k] + f * (p[j] - p[k])), axis=1)
+        c = (k + j) // 2
+        g_p = lin[c] @ _contractions(((p[j] - p[k]) / (t[j] - t[k]))[None], body.decoupled)[0]
+        rot_l = np.linalg.norm(g_left[k:j] - g_p, axis=(1, 2))
+        rot_r = np.linalg.norm(g_right[k:j] - g_p, axis=(1, 2))
+        return float(max((dev[:-1] + radius * rot_l).max(), (dev[1:] + radius * rot_r).max()))
+
+    n = len(t)
+    cuts = [0]
+    k = 0
+    while k < n - 1:
+        def fits(j):
+            return error(k, j) <= float(tol[k:j + 1].min())
+        lo, step = k + 1, 1  # lo always fits (a single probe interval is the finest piece)
+        while lo + step <= n - 1 and fits(lo + step):
+            lo += step
+            step *= 2
+        hi = min(lo + step, n)  # first known not to fit (or past the end)
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if fits(mid):
+                lo = mid
+            else:
+                hi = mid
+        cuts.append(lo)
+        k = lo
+    return tuple(cuts)
+
+
+def animation_cuts(scene: Scene, cameras, *, width: int, height: int, pixels: float = 0.5) -> tuple:
+    """((body index, cuts), ...) for every animated body of ``scene`` (empty: none), the
+    pieces within ``pixels`` pixels for every camera state of ``cameras``."""
+    cameras = list(cameras)
+    animated = [i for i, b in enumerate(scene.bodies) if b.motion is not None and b.surfaces]
+    if not animated:
+        return ()
+    angle = min((min_pixel_angle(c, width, height) for c in cameras), default=np.inf)
+    out = []
+    for i in animated:
+        body = scene.bodies[i]
+        radius = body_radius(body)
+        out.append((i, _body_cuts(body, _tolerances(body, radius, cameras, angle, pixels), radius)))
+    return tuple(out)
+
+
+def _moved(surface, linear: np.ndarray, shift: np.ndarray):
+    """``surface`` under p -> p @ linear + shift (normals by the inverse transpose)."""
+    points = np.asarray(surface.points, dtype=np.float64) @ linear + shift
+    normals = surface.normals
+    if normals is not None:
+        n = np.asarray(normals, dtype=np.float64) @ np.linalg.inv(linear).T
+        normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    sphere = surface.sphere
+    if sphere is not None:
+        move = np.eye(4)
+        move[:3, :3], move[3, :3] = linear, shift
+        sphere = (sphere[0], np.asarray(sphere[1], dtype=np.float64).reshape(4, 4) @ move)
+    return dataclasses.replace(surface, points=points, normals=normals, sphere=sphere)
+
+
+def piece_bodies(body: Body, cuts: tuple[int, ...]) -> list[Body]:
+    """``body``'s pieces of uniform motion: held before the first probe, one per pair of
+    neighbouring cuts, held after the last; cut to the body's lifetime.
+
+    Proper time: a coupled piece's reference event is put on its worldline where the
+    integral of dt / gamma from ``body.reference_time`` along the pieces would be 0, so
+    §2's tau = gamma ((t - t_ref) - v.(x - o)) continues that integral."""
+    m = body.motion
+    t, p = m.times, m.pivot
+    spans = [(-np.inf, t[0], t[0], p[0], m.hold_velocity, m.linear[0])]
+    for k, j in zip(cuts[:-1], cuts[1:]):
+        spans.append((t[k], t[j], t[k], p[k], (p[j] - p[k]) / (t[j] - t[k]), m.linear[(k + j) // 2]))
+    spans.append((t[-1], np.inf, t[-1], p[-1], m.hold_velocity, m.linear[-1]))
+    inv_gamma = [1.0 if body.decoupled else float(np.sqrt(max(1.0 - float(v @ v), 0.0))) for *_, v, _l in spans]
+    # F(t) = integral of dt / gamma from t[0]: at each span's anchor time (its start, the
+    # first span's end), then shifted so that F(t_ref) = 0.
+    anchor_f, f = [0.0], 0.0
+    for (lo, hi, *_), g in zip(spans[1:], inv_gamma[1:]):
+        anchor_f.append(f)
+        if np.isfinite(hi):
+            f += (hi - lo) * g
+    t_ref = body.reference_time
+    f_ref = next(((t_ref - s[2]) * g + f for s, g, f in zip(spans, inv_gamma, anchor_f)
+                  if s[0] <= t_ref <= s[1]), 0.0)
+    pieces = []
+    life_lo, life_hi = body.lifetime
+    for (lo, hi, t_anchor, o_anchor, v, linear), g, f in zip(spans, inv_gamma, anchor_f):
+        lo, hi = max(lo, life_lo), min(hi, life_hi)
+        if not lo < hi:
+            continue
+        tau = f - f_ref  # proper time at the anchor
+        ref = t_ref if body.decoupled else t_anchor - tau / g if g > 0.0 else t_anchor
+        origin = o_anchor + v * (ref - t_anchor)
+        shift = origin - m.static_pivot @ linear
+        pieces.append(dataclasses.replace(body, surfaces=tuple(_moved(s, linear, shift) for s in body.surfaces),
+                                          origin=origin, velocity=np.asarray(v, dtype=np.float64).copy(),
+                                          reference_time=float(ref), lifetime=(float(lo), float(hi)), motion=None))
+    return pieces
+
+
+def animated_bodies(scene: Scene, cuts: tuple) -> tuple[tuple[Body, ...], np.ndarray]:
+    """The bodies of ``scene`` with every animated one replaced by its pieces (in place,
+    stage order kept) and each new body's index in ``scene.bodies``, (B',) int32."""
+    chosen = dict(cuts)
+    bodies, object_of = [], []
+    for i, body in enumerate(scene.bodies):
+        parts = piece_bodies(body, chosen[i]) if i in chosen else [body]
+        bodies.extend(parts)
+        object_of.extend([i] * len(parts))
+    return tuple(bodies), np.array(object_of, dtype=np.int32)
