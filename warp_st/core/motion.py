@@ -36,6 +36,16 @@ class BodyMotion:
     sample_times: tuple
     hold_velocity: np.ndarray
 
+    def at(self, t: np.ndarray):
+        """(pivot, linear) at lab times ``t`` within [times[0], times[-1]], interpolated
+        linearly between the probes (within PROBE_TOLERANCE of USD), (K, 3) and (K, 3, 3)."""
+        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        k = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 2)
+        f = ((t - self.times[k]) / (self.times[k + 1] - self.times[k]))[:, None]
+        pivot = self.pivot[k] + f * (self.pivot[k + 1] - self.pivot[k])
+        linear = self.linear[k] + f[:, :, None] * (self.linear[k + 1] - self.linear[k])
+        return pivot, linear
+
     def chord_velocities(self) -> np.ndarray:
         """The pivot's velocity between neighbouring probes, (N - 1, 3)."""
         return np.diff(self.pivot, axis=0) / np.diff(self.times)[:, None]

@@ -10,8 +10,9 @@ at the pivot.
 
 Error. A body point r (about the pivot, |r| <= R) is modelled at o_p(t) + r G_p and USD puts
 it at o(t) + r G(t), G = L A(v) (A the contraction of the instantaneous velocity; I for
-decoupled bodies), so the distance is at most |o_p(t) - o(t)| + R |G_p - G(t)|_F, taken at
-every probe. Pieces are grown greedily while that stays under the tolerance of every probe
+decoupled bodies), so the distance is at most |o_p(t) - o(t)| + R |G_p - G(t)|_2, taken at
+every probe (probe intervals split evenly where one would not fit, ``_dense_times``:
+between probes USD is linear within the reader's PROBE_TOLERANCE). Pieces are grown greedily while that stays under the tolerance of every probe
 they hold: ``pixels`` x the smallest pixel angle x the nearest distance at which any
 camera can see the body near that probe (its pivot's distance minus R) / the camera's
 angular magnification (``adaptive``'s rule for spheres).
@@ -67,22 +68,50 @@ def _tolerances(body: Body, radius: float, cameras, angle: float, pixels: float)
     return np.maximum(tol, floor)
 
 
-def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[int, ...]:
-    """Probe indices where ``body``'s pieces begin and end (first 0, last N - 1)."""
+def _dense_times(body: Body, tol: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """The probes' times with each probe interval split evenly until the orientation and
+    contraction change across one part costs at most half the tolerance (so one part is
+    always a piece that fits), and the tolerance at each time (its interval's smaller)."""
     m = body.motion
-    t, p, lin = m.times, m.pivot, m.linear
-    vel = m.chord_velocities()
+    g = m.linear[:, :, :] @ _contractions(np.vstack([m.chord_velocities(), m.chord_velocities()[-1:]]),
+                                         body.decoupled)
+    change = radius * np.linalg.norm(np.diff(g, axis=0), ord=2, axis=(1, 2))
+    t_tol = np.minimum(tol[:-1], tol[1:])
+    parts = np.clip(np.ceil(2.0 * change / t_tol), 1, MAX_PARTS).astype(np.int64)
+    times = [m.times[:1]]
+    tols = [tol[:1]]
+    for k, n in enumerate(parts):
+        times.append(m.times[k] + (m.times[k + 1] - m.times[k]) * np.arange(1, n + 1) / n)
+        tols.append(np.full(n, t_tol[k]))
+    times, tols = np.concatenate(times), np.concatenate(tols)
+    times[-1] = m.times[-1]
+    return times, tols
+
+
+#: Most parts one probe interval is split into for the cutting (a tolerance far below the
+#: probes' spacing: a camera almost inside the body's reach).
+MAX_PARTS = 64
+
+
+def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[float, ...]:
+    """Lab times where ``body``'s pieces begin and end (the first and last probe's among them).
+
+    A piece [t_k, t_j] holds the orientation at its middle time and the chord's velocity;
+    its error is taken at the (densified) probe times it holds (module docstring)."""
+    t, tol = _dense_times(body, tol, radius)
+    p, lin = body.motion.at(t)
+    vel = np.diff(p, axis=0) / np.diff(t)[:, None]
     a = _contractions(vel, body.decoupled)
-    g_left = lin[:-1] @ a  # G at each interval's two probes, with the interval's velocity
+    g_left = lin[:-1] @ a  # G at each interval's two ends, with the interval's velocity
     g_right = lin[1:] @ a
 
     def error(k: int, j: int) -> float:
         f = ((t[k:j + 1] - t[k]) / (t[j] - t[k]))[:, None]
         dev = np.linalg.norm(p[k:j + 1] - (p[k] + f * (p[j] - p[k])), axis=1)
-        c = (k + j) // 2
-        g_p = lin[c] @ _contractions(((p[j] - p[k]) / (t[j] - t[k]))[None], body.decoupled)[0]
-        rot_l = np.linalg.norm(g_left[k:j] - g_p, axis=(1, 2))
-        rot_r = np.linalg.norm(g_right[k:j] - g_p, axis=(1, 2))
+        g_p = body.motion.at(0.5 * (t[k] + t[j]))[1][0] @ _contractions(
+            ((p[j] - p[k]) / (t[j] - t[k]))[None], body.decoupled)[0]
+        rot_l = np.linalg.norm(g_left[k:j] - g_p, ord=2, axis=(1, 2))
+        rot_r = np.linalg.norm(g_right[k:j] - g_p, ord=2, axis=(1, 2))
         return float(max((dev[:-1] + radius * rot_l).max(), (dev[1:] + radius * rot_r).max()))
 
     n = len(t)
@@ -91,7 +120,7 @@ def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[int, ...]:
     while k < n - 1:
         def fits(j):
             return error(k, j) <= float(tol[k:j + 1].min())
-        lo, step = k + 1, 1  # lo always fits (a single probe interval is the finest piece)
+        lo, step = k + 1, 1  # lo always fits (a single part is the finest piece)
         while lo + step <= n - 1 and fits(lo + step):
             lo += step
             step *= 2
@@ -104,12 +133,12 @@ def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[int, ...]:
                 hi = mid
         cuts.append(lo)
         k = lo
-    return tuple(cuts)
+    return tuple(float(t[c]) for c in cuts)
 
 
 def animation_cuts(scene: Scene, cameras, *, width: int, height: int, pixels: float = 0.5) -> tuple:
-    """((body index, cuts), ...) for every animated body of ``scene`` (empty: none), the
-    pieces within ``pixels`` pixels for every camera state of ``cameras``."""
+    """((body index, cut times), ...) for every animated body of ``scene`` (empty: none),
+    the pieces within ``pixels`` pixels for every camera state of ``cameras``."""
     cameras = list(cameras)
     animated = [i for i, b in enumerate(scene.bodies) if b.motion is not None and b.surfaces]
     if not animated:
@@ -138,19 +167,23 @@ def _moved(surface, linear: np.ndarray, shift: np.ndarray):
     return dataclasses.replace(surface, points=points, normals=normals, sphere=sphere)
 
 
-def piece_bodies(body: Body, cuts: tuple[int, ...]) -> list[Body]:
+def piece_bodies(body: Body, cuts: tuple[float, ...]) -> list[Body]:
     """``body``'s pieces of uniform motion: held before the first probe, one per pair of
-    neighbouring cuts, held after the last; cut to the body's lifetime.
+    neighbouring cut times (the first and last probe's among them), held after the last;
+    cut to the body's lifetime.
 
     Proper time: a coupled piece's reference event is put on its worldline where the
     integral of dt / gamma from ``body.reference_time`` along the pieces would be 0, so
     §2's tau = gamma ((t - t_ref) - v.(x - o)) continues that integral."""
     m = body.motion
-    t, p = m.times, m.pivot
-    spans = [(-np.inf, t[0], t[0], p[0], m.hold_velocity, m.linear[0])]
-    for k, j in zip(cuts[:-1], cuts[1:]):
-        spans.append((t[k], t[j], t[k], p[k], (p[j] - p[k]) / (t[j] - t[k]), m.linear[(k + j) // 2]))
-    spans.append((t[-1], np.inf, t[-1], p[-1], m.hold_velocity, m.linear[-1]))
+    cuts = np.asarray(cuts, dtype=np.float64)
+    p, _ = m.at(cuts)
+    _, mid = m.at(0.5 * (cuts[:-1] + cuts[1:]))
+    spans = [(-np.inf, cuts[0], cuts[0], p[0], m.hold_velocity, m.linear[0])]
+    for k in range(len(cuts) - 1):
+        a, b = cuts[k], cuts[k + 1]
+        spans.append((a, b, a, p[k], (p[k + 1] - p[k]) / (b - a), mid[k]))
+    spans.append((cuts[-1], np.inf, cuts[-1], p[-1], m.hold_velocity, m.linear[-1]))
     inv_gamma = [1.0 if body.decoupled else float(np.sqrt(max(1.0 - float(v @ v), 0.0))) for *_, v, _l in spans]
     # F(t) = integral of dt / gamma from t[0]: at each span's anchor time (its start, the
     # first span's end), then shifted so that F(t_ref) = 0.

@@ -23,7 +23,7 @@ __all__ = ["xform_sample_times", "sample_motion", "PROBE_TOLERANCE", "MAX_PROBE_
 #: Probes are refined until linear interpolation between neighbours is within this of USD's
 #: value at the quarter points: relative to (1 + |pivot|) for positions, absolutely for the
 #: linear part L (a fraction of the body's size once applied to it).
-PROBE_TOLERANCE = 1.0e-6
+PROBE_TOLERANCE = 1.0e-5
 #: At most 2^MAX_PROBE_DEPTH probe intervals per interval between USD samples.
 MAX_PROBE_DEPTH = 12
 
