@@ -147,3 +147,29 @@ def Cube "C"
     with pytest.raises(SceneError, match=r"/Cam: xformOpOrder: the animated camera moves at 2 c at time code 3"):
         scene.camera_state(None, 3.0)
     assert np.allclose(scene.camera_state(None, 10.0).velocity, 0.0)  # held after the last sample
+
+
+def test_validate_lists_animated_bodies(tmp_path, capsys):
+    """One INFO line per animated body: samples, the pivot's speed range, the fastest body
+    point (the rod's tips: 0.7c, the chords of the probes a hair slower), and the motion
+    segments for the stage's camera at the default resolution over its time codes, the
+    count the renderer's own rule gives for those cameras."""
+    import re
+
+    from warp_st.core.conventions import DEFAULT_RESOLUTION
+    from warp_st.spacetime.animation import animation_cuts
+
+    from animation_stages import spinning_rod
+
+    path = write(tmp_path, "rod.usda", spinning_rod(0.7))
+    assert main(["validate", path]) == 0
+    out = capsys.readouterr().out
+    (line,) = [line for line in out.splitlines() if line.startswith("INFO")]
+    match = re.fullmatch(rf"INFO {re.escape(path)}:/Rod: animated: 2 time samples \(0 to 100\), pivot speed 0 to 0 c, "
+                         r"body points up to (\S+) c \(coupled\); (\d+) motion segments at 640 x 360", line)
+    assert match, line
+    assert abs(float(match.group(1)) - 0.7 * np.sqrt(2.0 ** 2 + 0.2 ** 2 + 0.2 ** 2) / 2.0) <= 1e-3
+    scene = warp_st.load(path)
+    cameras = [scene.camera_state(None, float(f)) for f in np.linspace(0, 100, 101)]
+    (cuts,) = animation_cuts(scene, cameras, width=DEFAULT_RESOLUTION[0], height=DEFAULT_RESOLUTION[1])
+    assert int(match.group(2)) == len(cuts[1]) + 1

@@ -221,3 +221,25 @@ def animated_bodies(scene: Scene, cuts: tuple) -> tuple[tuple[Body, ...], np.nda
         bodies.extend(parts)
         object_of.extend([i] * len(parts))
     return tuple(bodies), np.array(object_of, dtype=np.int32)
+
+
+def animation_report(scene: Scene, cameras, *, width: int, height: int) -> list[tuple[str, str]]:
+    """(body prim path, one line) per animated body: its USD samples, its pivot's speed
+    range and the pieces it is rendered as for ``cameras`` at ``width`` x ``height``."""
+    cuts = dict(animation_cuts(scene, cameras, width=width, height=height)) if cameras else {}
+    lines = []
+    for i, body in enumerate(scene.bodies):
+        m = body.motion
+        if m is None:
+            continue
+        speeds = np.linalg.norm(m.chord_velocities(), axis=1)
+        turn = np.linalg.norm(np.diff(m.linear, axis=0), ord=2, axis=(1, 2)) / np.diff(m.times)
+        fastest = float((speeds + body_radius(body) * turn).max())  # no body point moves faster
+        samples = m.sample_times
+        text = (f"animated: {len(samples)} time samples ({samples[0]:g} to {samples[-1]:g}), pivot speed "
+                f"{float(speeds.min()):.4g} to {float(speeds.max()):.4g} c, body points up to {fastest:.4g} c"
+                f" ({'Lorentz-decoupled' if body.decoupled else 'coupled'})")
+        if i in cuts:
+            text += f"; {len(cuts[i]) + 1} motion segments at {width} x {height}"
+        lines.append((body.prim_path, text))
+    return lines
