@@ -91,7 +91,7 @@ def test_four_velocity_composes_with_the_animation(tmp_path):
     assert np.array_equal(motion.hold_velocity, [0.2, 0.0, 0.0])
     # and so the rendered pieces: held before 0 and after 10, moving with v = (0.2, 0.3, 0) between
     from warp_st.spacetime.animation import piece_bodies
-    pieces = piece_bodies(scene.bodies[0], (0.0, 10.0))
+    pieces = piece_bodies(scene.bodies[0], ((0.0, 0.0, 0.0), (10.0, 0.0, 5.0)))
     assert [p.lifetime for p in pieces] == [(-np.inf, 0.0), (0.0, 10.0), (10.0, np.inf)]
     assert np.allclose([p.velocity for p in pieces], [[0.2, 0, 0], [0.2, 0.3, 0], [0.2, 0, 0]], atol=1e-12)
 

@@ -23,6 +23,7 @@ import dataclasses
 
 import numpy as np
 
+from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Body, Scene
 from warp_st.spacetime.adaptive import _camera_stretch, min_pixel_angle
 
@@ -93,33 +94,48 @@ def _dense_times(body: Body, tol: np.ndarray, radius: float) -> tuple[np.ndarray
 MAX_PARTS = 64
 
 
-def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[float, ...]:
-    """Lab times where ``body``'s pieces begin and end (the first and last probe's among them).
+def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[tuple[float, float, float], ...]:
+    """(cut time, start time, orientation time) per piece of ``body`` (the first row only
+    opens the first piece): a piece moves along the chord between its cut and the next,
+    exists from its start (<= its cut) and holds the orientation of the probe at its
+    orientation time (its middle probe).
 
-    A piece [t_k, t_j] holds the orientation at its middle time and the chord's velocity;
-    its error is taken at the (densified) probe times it holds (module docstring)."""
-    t, tol = _dense_times(body, tol, radius)
+    Error bound of a piece [k, j] at each (densified) probe m it holds (module docstring):
+    |o(t_m) - chord(t_m)| + R (|L_m - L_mid|_2 + s_m |A(v_chord) - A(v_m)|_F), s_m the
+    largest singular value of L_m, and |L_m - L_mid|_2 at most the sum of the probe-to-probe
+    changes between them (no matrix norm per query). Pieces are grown within half the
+    tolerance, then each is extended back in time over its predecessor while it stays within
+    the whole tolerance: where two pieces' surfaces differ at a seam, a ray crossing the seam
+    between them would otherwise enter the earlier one through its cap (no surface) and see
+    its far side; in the overlap it meets the later one's surface first."""
+    t, tol = _dense_times(body, 0.5 * tol, radius)
+    tol = 2.0 * tol
     p, lin = body.motion.at(t)
+    turn = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(lin, axis=0), ord=2, axis=(1, 2)))])
+    scale = np.linalg.norm(lin, ord=2, axis=(1, 2))
     vel = np.diff(p, axis=0) / np.diff(t)[:, None]
     a = _contractions(vel, body.decoupled)
-    g_left = lin[:-1] @ a  # G at each interval's two ends, with the interval's velocity
-    g_right = lin[1:] @ a
+    moving = not body.decoupled and bool(np.any(vel != 0.0))  # a pivot at rest contracts nothing
 
-    def error(k: int, j: int) -> float:
-        f = ((t[k:j + 1] - t[k]) / (t[j] - t[k]))[:, None]
-        dev = np.linalg.norm(p[k:j + 1] - (p[k] + f * (p[j] - p[k])), axis=1)
-        g_p = body.motion.at(0.5 * (t[k] + t[j]))[1][0] @ _contractions(
-            ((p[j] - p[k]) / (t[j] - t[k]))[None], body.decoupled)[0]
-        rot_l = np.linalg.norm(g_left[k:j] - g_p, ord=2, axis=(1, 2))
-        rot_r = np.linalg.norm(g_right[k:j] - g_p, ord=2, axis=(1, 2))
-        return float(max((dev[:-1] + radius * rot_l).max(), (dev[1:] + radius * rot_r).max()))
+    def errors(k: int, j: int, lo: int, hi: int) -> np.ndarray:
+        """Bound per probe in [lo, hi] of the piece [k, j] (lo <= k < j; hi <= j)."""
+        c = (k + j) // 2
+        v = (p[j] - p[k]) / (t[j] - t[k])
+        dev = np.linalg.norm(p[lo:hi + 1] - (p[k] + v * (t[lo:hi + 1] - t[k])[:, None]), axis=1)
+        rot = np.abs(turn[lo:hi + 1] - turn[c])
+        if moving:  # the contraction of either interval in [lo, hi] the probe ends
+            da = np.linalg.norm(a[lo:hi] - contraction_matrix(v, False), axis=(1, 2))
+            probes = np.arange(hi - lo + 1)
+            left, right = np.clip(probes - 1, 0, hi - lo - 1), np.clip(probes, 0, hi - lo - 1)
+            rot = rot + scale[lo:hi + 1] * np.maximum(da[left], da[right])
+        return dev + radius * rot
 
     n = len(t)
     cuts = [0]
     k = 0
     while k < n - 1:
         def fits(j):
-            return error(k, j) <= float(tol[k:j + 1].min())
+            return bool((errors(k, j, k, j) <= 0.5 * tol[k:j + 1]).all())
         lo, step = k + 1, 1  # lo always fits (a single part is the finest piece)
         while lo + step <= n - 1 and fits(lo + step):
             lo += step
@@ -133,7 +149,16 @@ def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[float, ...]:
                 hi = mid
         cuts.append(lo)
         k = lo
-    return tuple(float(t[c]) for c in cuts)
+    rows = [(float(t[0]), float(t[0]), float(t[0]))]
+    for q in range(1, len(cuts)):
+        k, j = cuts[q - 1], cuts[q]
+        start = k
+        if q > 1:  # extend back over the previous piece while within the whole tolerance
+            prev = cuts[q - 2]
+            bad = np.nonzero(errors(k, j, prev, k) > tol[prev:k + 1])[0]
+            start = min(prev + (int(bad[-1]) + 1 if bad.size else 0), k)
+        rows.append((float(t[j]), float(t[start]), float(t[(k + j) // 2])))
+    return tuple(rows)
 
 
 def animation_cuts(scene: Scene, cameras, *, width: int, height: int, pixels: float = 0.5) -> tuple:
@@ -167,34 +192,36 @@ def _moved(surface, linear: np.ndarray, shift: np.ndarray):
     return dataclasses.replace(surface, points=points, normals=normals, sphere=sphere)
 
 
-def piece_bodies(body: Body, cuts: tuple[float, ...]) -> list[Body]:
-    """``body``'s pieces of uniform motion: held before the first probe, one per pair of
-    neighbouring cut times (the first and last probe's among them), held after the last;
-    cut to the body's lifetime.
+def piece_bodies(body: Body, cuts: tuple[tuple[float, float, float], ...]) -> list[Body]:
+    """``body``'s pieces of uniform motion: held before the first probe, one per row after
+    the first of ``_body_cuts`` (a piece moves from the previous row's cut to its own,
+    exists from its start, holds the orientation at its orientation time), held after the
+    last; cut to the body's lifetime.
 
     Proper time: a coupled piece's reference event is put on its worldline where the
     integral of dt / gamma from ``body.reference_time`` along the pieces would be 0, so
     §2's tau = gamma ((t - t_ref) - v.(x - o)) continues that integral."""
     m = body.motion
-    cuts = np.asarray(cuts, dtype=np.float64)
-    p, _ = m.at(cuts)
-    _, mid = m.at(0.5 * (cuts[:-1] + cuts[1:]))
-    spans = [(-np.inf, cuts[0], cuts[0], p[0], m.hold_velocity, m.linear[0])]
-    for k in range(len(cuts) - 1):
-        a, b = cuts[k], cuts[k + 1]
-        spans.append((a, b, a, p[k], (p[k + 1] - p[k]) / (b - a), mid[k]))
-    spans.append((cuts[-1], np.inf, cuts[-1], p[-1], m.hold_velocity, m.linear[-1]))
+    rows = np.array(cuts, dtype=np.float64).reshape(-1, 3)
+    times = rows[:, 0]
+    p, _ = m.at(times)
+    _, mid = m.at(rows[1:, 2])
+    spans = [(-np.inf, times[0], times[0], p[0], m.hold_velocity, m.linear[0])]
+    for k in range(len(times) - 1):
+        a, b = times[k], times[k + 1]
+        spans.append((rows[k + 1, 1], b, a, p[k], (p[k + 1] - p[k]) / (b - a), mid[k]))
+    spans.append((times[-1], np.inf, times[-1], p[-1], m.hold_velocity, m.linear[-1]))
     inv_gamma = [1.0 if body.decoupled else float(np.sqrt(max(1.0 - float(v @ v), 0.0))) for *_, v, _l in spans]
     # F(t) = integral of dt / gamma from t[0]: at each span's anchor time (its start, the
     # first span's end), then shifted so that F(t_ref) = 0.
     anchor_f, f = [0.0], 0.0
-    for (lo, hi, *_), g in zip(spans[1:], inv_gamma[1:]):
+    for (_lo, hi, t_anchor, *_), g in zip(spans[1:], inv_gamma[1:]):
         anchor_f.append(f)
         if np.isfinite(hi):
-            f += (hi - lo) * g
+            f += (hi - t_anchor) * g  # over the piece's own span (not its overlap with the last)
     t_ref = body.reference_time
-    f_ref = next(((t_ref - s[2]) * g + f for s, g, f in zip(spans, inv_gamma, anchor_f)
-                  if s[0] <= t_ref <= s[1]), 0.0)
+    f_ref = next(((t_ref - s[2]) * g + f for q, (s, g, f) in enumerate(zip(spans, inv_gamma, anchor_f))
+                  if (s[0] if q == 0 else s[2]) <= t_ref <= s[1]), 0.0)
     pieces = []
     life_lo, life_hi = body.lifetime
     for (lo, hi, t_anchor, o_anchor, v, linear), g, f in zip(spans, inv_gamma, anchor_f):
