@@ -63,6 +63,7 @@ def test_two_translate_samples_render_as_four_velocity(tmp_path):
         assert not (differ & ~edge).any(), frame
         both = ma & mu
         seen += int(both.sum())
+        assert set(np.unique(a.object_id).tolist()) <= {0, 1}  # the pieces are the stage's one body (objectId 1)
         assert np.abs(a.depth[both] - u.depth[both]).max() <= 1e-4 * np.abs(u.depth[both]).max()
         assert np.abs(a.event_time[both] - u.event_time[both]).max() <= 1e-3
         assert np.abs(a.proper_time[both] - u.proper_time[both]).max() <= 1e-3
