@@ -115,7 +115,8 @@ def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[tuple[float,
     scale = np.linalg.norm(lin, ord=2, axis=(1, 2))
     vel = np.diff(p, axis=0) / np.diff(t)[:, None]
     a = _contractions(vel, body.decoupled)
-    moving = not body.decoupled and bool(np.any(vel != 0.0))  # a pivot at rest contracts nothing
+    # The contraction changes only where the pivot's velocity does (never at rest or uniform).
+    moving = not body.decoupled and bool(np.ptp(vel, axis=0).max() > 0.0)
 
     def errors(k: int, j: int, lo: int, hi: int) -> np.ndarray:
         """Bound per probe in [lo, hi] of the piece [k, j] (lo <= k < j; hi <= j)."""
@@ -126,7 +127,7 @@ def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[tuple[float,
         if moving:  # the contraction of either interval in [lo, hi] the probe ends
             da = np.linalg.norm(a[lo:hi] - contraction_matrix(v, False), axis=(1, 2))
             probes = np.arange(hi - lo + 1)
-            left, right = np.clip(probes - 1, 0, hi - lo - 1), np.clip(probes, 0, hi - lo - 1)
+            left, right = np.maximum(probes - 1, 0), np.minimum(probes, hi - lo - 1)
             rot = rot + scale[lo:hi + 1] * np.maximum(da[left], da[right])
         return dev + radius * rot
 
