@@ -12,10 +12,11 @@ Error. A body point r (about the pivot, |r| <= R) is modelled at o_p(t) + r G_p 
 it at o(t) + r G(t), G = L A(v) (A the contraction of the instantaneous velocity; I for
 decoupled bodies), so the distance is at most |o_p(t) - o(t)| + R |G_p - G(t)|_2, taken at
 every probe (probe intervals split evenly where one would not fit, ``_dense_times``:
-between probes USD is linear within the reader's PROBE_TOLERANCE). Pieces are grown greedily while that stays under the tolerance of every probe
-they hold: ``pixels`` x the smallest pixel angle x the nearest distance at which any
-camera can see the body near that probe (its pivot's distance minus R) / the camera's
-angular magnification (``adaptive``'s rule for spheres).
+between probes USD is linear within the reader's PROBE_TOLERANCE). Pieces are grown
+greedily while that stays under the tolerance of every probe they hold: ``pixels`` x the
+smallest pixel angle x the nearest distance at which any camera can see the body near that
+probe (its pivot's distance minus R) / the camera's angular magnification (``adaptive``'s
+rule for spheres). Pieces overlap in time at their seams (``_body_cuts``).
 """
 from __future__ import annotations
 
@@ -74,8 +75,7 @@ def _dense_times(body: Body, tol: np.ndarray, radius: float) -> tuple[np.ndarray
     contraction change across one part costs at most half the tolerance (so one part is
     always a piece that fits), and the tolerance at each time (its interval's smaller)."""
     m = body.motion
-    g = m.linear[:, :, :] @ _contractions(np.vstack([m.chord_velocities(), m.chord_velocities()[-1:]]),
-                                         body.decoupled)
+    g = m.linear @ _contractions(np.vstack([m.chord_velocities(), m.chord_velocities()[-1:]]), body.decoupled)
     change = radius * np.linalg.norm(np.diff(g, axis=0), ord=2, axis=(1, 2))
     t_tol = np.minimum(tol[:-1], tol[1:])
     parts = np.clip(np.ceil(2.0 * change / t_tol), 1, MAX_PARTS).astype(np.int64)
