@@ -59,7 +59,7 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     g = k.Geometry()
     ns = static.np_scalar
     order = static.order
-    for name in ("prim_vidx", "prim_tri", "tri_body", "body_mesh", "body_tri_base", "body_rest", "body_rest_lo",
+    for name in ("prim_vidx", "prim_tri", "tri_body", "body_object", "body_mesh", "body_tri_base", "body_rest", "body_rest_lo",
                  "body_rest_hi", "body_start_lo", "body_start_hi", "seg_body"):
         setattr(g, name, getattr(static, name))
     g.body_velocity = static.body_velocity64
