@@ -44,6 +44,8 @@ def run(args) -> int:
     with captured_output(), _address_space_cap(default_max_memory()):
         stage, _ = _open_file(label, args.no_references)
         problems, scene = validate_stage(stage, label, no_references=args.no_references)
+    if scene is not None:
+        problems = list(problems) + _animation_problems(scene, label)
     n = counts(problems)
     if scene is not None:
         contents = f"{len(scene.bodies)} bodies, {len(scene.cameras)} cameras, {len(scene.lights)} lights"
@@ -65,3 +67,26 @@ def run(args) -> int:
         print(f"{PROG}: error: {label}: {_plural(n['error'], 'error')} (listed above)", file=sys.stderr)
         return 2
     return 0
+
+
+def _animation_problems(scene, label: str) -> list:
+    """INFO per animated body (docs/spec.md §2.1): samples, speed range and the motion
+    segments it renders as through the scene's camera at its resolution, over the
+    stage's time codes (at most 101 frames of them, evenly spread)."""
+    import numpy as np
+
+    from warp_st.core.conventions import DEFAULT_RESOLUTION
+    from warp_st.core.scene import SceneError
+    from warp_st.spacetime.animation import animation_report
+    from warp_st.usd.validators import Problem
+
+    if not any(b.motion is not None for b in scene.bodies):
+        return []
+    width, height = scene.settings.resolution or DEFAULT_RESOLUTION
+    start, end = scene.frame_range or (0.0, 0.0)
+    try:
+        cameras = [scene.camera_state(None, float(f)) for f in np.linspace(start, end, min(101, int(end - start) + 1))]
+    except SceneError:  # listed as the camera's own error
+        cameras = []
+    return [Problem("info", label, path, None, text, "animation")
+            for path, text in animation_report(scene, cameras, width=width, height=height)]

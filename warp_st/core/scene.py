@@ -166,6 +166,8 @@ class Body:
     origin: world-space pivot o of the prim carrying ``SpacetimeBodyAPI``, (3,).
     velocity: lab velocity v = (x, y, z) / t of ``spacetime:fourVelocity``, (3,).
     lifetime: lab times (tBegin, tEnd); +-inf when unbounded.
+    motion: a ``warp_st.core.motion.BodyMotion`` when USD animates the body (docs/spec.md
+        §2.1; ``velocity`` is then only its held part), else None.
     """
 
     prim_path: str
@@ -175,6 +177,7 @@ class Body:
     reference_time: float = 0.0
     lifetime: tuple[float, float] = (-np.inf, np.inf)
     decoupled: bool = False
+    motion: object = None
 
     @property
     def speed(self) -> float:

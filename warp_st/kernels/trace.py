@@ -63,6 +63,7 @@ def make_trace(scalar, primitive: str = "prism"):
         prim_vidx: wp.array(dtype=wp.vec4i)  # vertex indices for shading (prism: a, b, c, a)
         prim_tri: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
+        body_object: wp.array(dtype=wp.int32)  # the object of each body (an animated body's pieces share one)
         # The 4-wide BVH (bvh_wide.py): wide node j's four child boxes, axis-major
         # (t0..t3, x0..x3, y0..y3, z0..z3), low corners in node_lo[j], high in
         # node_hi[j]; its children's links first << LINK_SHIFT | count (a leaf's
@@ -383,7 +384,7 @@ def make_trace(scalar, primitive: str = "prism"):
                     h, s, lam = hit(g, ti, o, ray.nd, ray.ud, ray.wd, finite, s_min, best)
                 if h and skip_body >= 0 and s < skip_dist:
                     # (Warp may evaluate both sides of `or`: no index with tri = -2.)
-                    if g.tri_body[tri] == skip_body:
+                    if g.body_object[g.tri_body[tri]] == g.body_object[skip_body]:
                         h = False
                 if h:
                     best = s

@@ -17,8 +17,8 @@ body's reference event (t_ref, o) on the pivot's worldline as anchor, the ray is
 parameter. The segment admits s in [s_lo, s_hi]: (s_min, best) cut to its span
 (t = o_t - s in [t_lo, t_hi]; with infinite c, o_t itself must lie in it). The query
 runs over the part of that where r(s) is inside the body's rest box (see ``leaf``).
-Hits on body ``skip_body`` nearer than ``skip_dist`` are left out by starting that
-body's query at skip_dist instead: the same rule as the prism path, without a test per
+Hits on body ``skip_body`` (or another piece of its animated object, ``body_object``)
+nearer than ``skip_dist`` are left out by starting that body's query at skip_dist instead: the same rule as the prism path, without a test per
 hit. A hit on the triangle a secondary ray leaves (``skip_tri``: a grazing ray can meet
 its own facet again within rounding) is stepped over and the query repeated; for that
 body a shadow ray runs the closest-hit query (which sees triangles), every other body
@@ -76,6 +76,7 @@ def make_trace_rigid(scalar):
         prim_vidx: wp.array(dtype=wp.vec4i)
         prim_tri: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
+        body_object: wp.array(dtype=wp.int32)  # the object of each body (an animated body's pieces share one)
         # Bodies: bottom level (wp.Mesh id of the body's shape), first global triangle,
         # velocity and rest_from_lab (A^-1) in float64 (see ``to_body``).
         body_mesh: wp.array(dtype=wp.uint64)
@@ -210,7 +211,11 @@ def make_trace_rigid(scalar):
             span = g.seg_span[si]
             body = g.seg_body[si]
             s_from = s_min
-            if body == skip_body:
+            own = int(0)  # a body of skip_body's object (an animated body's piece)
+            if skip_body >= 0:
+                if g.body_object[body] == g.body_object[skip_body]:
+                    own = 1
+            if own != 0:
                 s_from = fmax(s_from, skip_dist)
             s_lo = s_from
             s_hi = best
@@ -238,7 +243,7 @@ def make_trace_rigid(scalar):
                         best_lam = vec4(normal[0], normal[1], normal[2], scalar(ANALYTIC))
                         if any_hit != 0:
                             return best, best_prim, best_lam
-                elif any_hit != 0 and body != skip_body:
+                elif any_hit != 0 and own == 0:
                     e0 = wp.max(e0, wp.float64(s_lo))
                     if e0 < e1:
                         if wp.mesh_query_ray_anyhit(mesh, at(p, d, e0), direction, wp.float32(e1 - e0)):

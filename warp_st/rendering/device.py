@@ -58,6 +58,10 @@ class ShadingTables:
             np.array([1 if b.decoupled else 0 for b in bodies], dtype=np.int32), dtype=wp.int32, device=_DEVICE
         )
         self.body_events = np.array([[b.reference_time, *b.origin] for b in bodies], dtype=np.float64).reshape(-1, 4)
+        # An animated body's pieces (spacetime/animation.py) keep its prim path: one object.
+        first = {}
+        objects = np.array([first.setdefault(b.prim_path, i) for i, b in enumerate(bodies)], dtype=np.int32)
+        self.body_object = wp.array(objects, dtype=wp.int32, device=_DEVICE)
 
 
 class StaticArrays(ShadingTables):
@@ -114,6 +118,7 @@ def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: Fl
     g.prim_vidx = static.prim_vidx
     g.prim_tri = static.prim_tri
     g.tri_body = static.tri_body
+    g.body_object = static.body_object
     set_nodes(k, g, static.wide, static.node_link, bvh, origin, ns)
     return g
 

@@ -22,7 +22,6 @@ import numpy as np
 from warp_st.accel.bvh import FlatBVH
 from warp_st.core.conventions import DEFAULT_RESOLUTION, LightSpeed, Precision
 from warp_st.core.limits import resolve_max_memory
-from warp_st.core.native_output import captured_output
 from warp_st.core.scene import CameraState, Scene, SceneError
 from warp_st.kernels.layout import PRIMITIVES
 from warp_st.output.channels import LOW_TIME_CHANNELS, join_time, split_time
@@ -30,7 +29,9 @@ from warp_st.output.cryptomatte import image_layers, resolve_layers
 from warp_st.output.film import Image, quantize_time
 from warp_st.rendering import database_cache
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
+from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
+from warp_st.spacetime.animation import animated_bodies, animation_cuts
 from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
 from warp_st.spacetime.rigid import all_exact_quadrics, quadric_body
 from warp_st.spacetime.visibility import union, visibility_windows
@@ -47,31 +48,6 @@ DEFAULT_MAX_DEPTH = 4
 #: Performance): the aberration scene's 1 -> 2 core speed-up 1.64-1.86x (median
 #: 1.79x) against 1.67-1.74x.
 TILE_PIXELS = 4096
-
-
-def init_warp():
-    """The ``warp`` module, configured (errors only, no backward pass, ``WARP_CACHE_PATH`` as
-    the kernel cache) and initialised once without the CPU-only driver notice."""
-    import warp as wp
-
-    if not getattr(init_warp, "_ready", False):
-        wp.config.log_level = 40  # errors only: no banner or per-module load lines
-        wp.config.enable_backward = False
-        cache = os.environ.get("WARP_CACHE_PATH")
-        if cache:
-            wp.config.kernel_cache_dir = cache
-        _quiet_init(wp)
-        init_warp._ready = True
-    return wp
-
-
-def _quiet_init(wp) -> None:
-    """wp.init() without the native 'no CUDA driver' line on a CPU-only machine."""
-    if os.environ.get("WARP_ST_DEBUG"):
-        wp.init()
-        return
-    with captured_output():
-        wp.init()
 
 
 @dataclass
@@ -287,18 +263,27 @@ class Renderer:
         # The shutter moves each camera event along its worldline by up to `shutter`.
         shutter = self.shutter if self.samples > 1 else 0.0
         ends = cams + [c.advanced(shutter) for c in cams if shutter > 0.0]
+        cache = database_cache.for_scene(self.scene)
+        scene = self.scene
+        # Animated bodies (docs/spec.md §2.1): pieces of uniform motion within half a pixel in every frame.
+        self.animation = animation_cuts(self.scene, ends, width=self.width, height=self.height)
+        self.object_of = None  # the scene body of each rendered body (None: the same)
+        if self.animation:  # the cache holds the bodies only: an entry must not keep its scene alive
+            bodies, self.object_of = cache.tessellated(("animation", self.animation),
+                                                       lambda: animated_bodies(self.scene, self.animation))
+            scene = dataclasses.replace(self.scene, bodies=bodies)
         # UsdGeom.Spheres: the cheapest tessellation within half a pixel in every frame.
         # Spheres traced exactly keep the reader's tessellation (their shading tables only).
         self.sphere_segments = sphere_tessellation(
-            self.scene, ends, width=self.width, height=self.height,
+            scene, ends, width=self.width, height=self.height,
             modes=sorted(m == LightSpeed.INFINITE for m in modes), max_depth=self.max_depth)
-        exact = {s.prim_path for b in self.scene.bodies if quadric_body(b, self.exact_quadrics) for s in b.surfaces}
+        exact = {s.prim_path for b in scene.bodies if quadric_body(b, self.exact_quadrics) for s in b.surfaces}
         self.sphere_segments = {k: v for k, v in self.sphere_segments.items() if k not in exact}
-        cache = database_cache.for_scene(self.scene)
-        tessellation = tuple(sorted(self.sphere_segments.items()))
-        scene = self.scene
-        if tessellation:  # the cache holds the bodies only: an entry must not keep its scene alive
-            bodies = cache.tessellated(tessellation, lambda: retessellated(self.scene, self.sphere_segments).bodies)
+        tessellation = tuple(sorted(self.sphere_segments.items())) + ((("animation", self.animation),)
+                                                                       if self.animation else ())
+        if self.sphere_segments:
+            pieces = scene
+            bodies = cache.tessellated(tessellation, lambda: retessellated(pieces, self.sphere_segments).bodies)
             scene = dataclasses.replace(self.scene, bodies=bodies)
         # The measuring options build a database of their own, neither looked up nor cached.
         measuring = self.sweep_fraction is not None or self.adjust_windows is not None
@@ -413,6 +398,7 @@ class Renderer:
             "primitive": self.primitive,
             "triangles": s.triangles,
             "motion_segments": s.segments,
+            "animated_segments": sum(len(cuts) + 1 for _, cuts in self.animation),  # pieces before clipping
             "time_segments": ("motion segments (rigid)" if self.primitive == "rigid"
                               else f"sweep {self.sweep_fraction:g} x body size" if self.sweep_fraction is not None
                               else "per triangle" if self.fine_segments else "per body (memory)"),
@@ -508,6 +494,8 @@ class Renderer:
         rel = film.event_time.numpy().reshape(h, w)
         origin = float(cam.time)
         object_id = film.object_id.numpy().reshape(h, w).astype(np.uint32)
+        if self.object_of is not None:  # an animated body's pieces are one object
+            object_id = np.where(object_id > 0, self.object_of[np.maximum(object_id, 1) - 1] + 1, 0).astype(np.uint32)
         source_rel = film.source_time.numpy().reshape(h, w)
         # Absolute times, quantised exactly as the EXR stores them: float32 relative to t_c,
         # and in float64 renders with each one's float32 residual beside it (channels.py).

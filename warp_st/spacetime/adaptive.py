@@ -226,7 +226,7 @@ def sphere_tessellation(scene: Scene, cameras, *, width: int, height: int, modes
             n = sphere_segments_for_view(r_world, distance, angle, pixels=pixels)
             if mirrors:  # reflections can magnify: never coarser than the reader's default
                 n = max(n, tessellate.DEFAULT_SPHERE_SEGMENTS)
-            chosen[surf.prim_path] = n
+            chosen[surf.prim_path] = max(n, chosen.get(surf.prim_path, 0))  # an animated body's pieces share it
     return chosen
 
 

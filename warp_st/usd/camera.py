@@ -12,6 +12,7 @@ from warp_st.core.conventions import LightSpeed
 from warp_st.core.limits import MAX_MAGNITUDE
 from warp_st.core.scene import DEFAULT_CAMERA, CameraState, SceneError
 from warp_st.usd import attributes as A
+from warp_st.usd.animation import xform_sample_times
 from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api
 from warp_st.usd.geometry import world_transform
 from warp_st.usd.stage import open_stage, tf_message
@@ -160,11 +161,16 @@ class CameraEvaluator:
         time = frame if time is None else time
         light_speed = A.token(w, prim, "spacetime:lightSpeed", tuple(s.value for s in LightSpeed),
                               LightSpeed.FINITE.value, time=tc)
-        velocity, decoupled = np.zeros(3), False
+        velocity, decoupled = self._animated_velocity(prim, frame, position, time), False
         if has_api(prim, SPACETIME_BODY_API):
             # A moving camera: its world position o holds at t_ref; at t_c it is o + v (t_c - t_ref).
-            velocity, t_ref, _, decoupled = body_kinematics(w, prim)
-            position = position + velocity * (time - t_ref)
+            uniform, t_ref, _, decoupled = body_kinematics(w, prim)
+            position = position + uniform * (time - t_ref)
+            velocity = velocity + uniform  # composed with its animation (docs/spec.md §2.1)
+        if not decoupled and not float(np.linalg.norm(velocity)) < 1.0:
+            raise w.error(prim, "xformOpOrder", f"the animated camera moves at {float(np.linalg.norm(velocity)):.6g} c "
+                                                f"at time code {frame:g} (>= the speed of light); slow the animation "
+                                                "or set spacetime:lorentzDecoupled = true")
 
         def positive(name, fallback):
             return A.real(w, prim, name, fallback, time=tc, positive=True)
@@ -183,6 +189,28 @@ class CameraEvaluator:
             velocity=velocity,
             decoupled=decoupled,
         )
+
+
+    def _animated_velocity(self, prim, frame: float, position: np.ndarray, time: float) -> np.ndarray:
+        """d(position)/d(t_c) of USD's interpolation at ``frame`` (docs/spec.md §2.1): a
+        forward difference (the motion from the camera event on; exact between linear
+        samples), zero when no xformOp of the camera or its ancestors is time-sampled."""
+        if len(xform_sample_times(prim)) < 2:
+            return np.zeros(3)
+        w = self.where
+        step = ANIMATION_STEP * max(1.0, abs(frame))
+        tc = Usd.TimeCode(frame + step)
+        later = world_transform(w, prim, lambda: UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(tc), tc)
+        t_later = A.real(w, prim, "spacetime:time", None, time=tc)
+        dt = step if t_later is None else t_later - time
+        if not dt > 0.0:
+            raise w.error(prim, "spacetime:time", f"must increase with the time code where the camera is animated "
+                                                  f"(time code {frame:g})")
+        return (np.array(later.ExtractTranslation(), dtype=np.float64) - position) / dt
+
+
+#: The time-code step of an animated camera's finite-difference velocity, relative to max(1, |frame|).
+ANIMATION_STEP = 1.0e-6
 
 
 def lab_from_camera(world: Gf.Matrix4d) -> np.ndarray | None:

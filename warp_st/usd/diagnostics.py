@@ -35,6 +35,8 @@ class Notes:
         self._items: dict[tuple, Diagnostic] = {}
         #: False on a stage whose time samples USD cannot list (see :func:`samples_listable`)
         self.count_samples = True
+        #: prims whose time-sampled xformOps move a body (docs/spec.md §2.1): not warned
+        self.animated: set[str] = set()
 
     def warn(self, prim, attribute: str | None, message: str, code: str) -> None:
         self._add("warning", prim, attribute, message, code)
@@ -206,7 +208,8 @@ def check_prim(notes: Notes, prim, time, *, attributes: bool = True, samples: bo
         name = attr.GetName()
         if masked and (path, name) in masked:
             continue
-        if samples and attr.ValueMightBeTimeVarying():  # one sample is a constant: nothing is lost
+        honoured_samples = name.startswith("xformOp:") and path in notes.animated  # docs/spec.md §2.1
+        if samples and attr.ValueMightBeTimeVarying() and not honoured_samples:  # one sample is a constant
             at = "its default value" if name.startswith("spacetime:") else f"its value at time code {time.GetValue():g}"
             count = "time samples"
             if notes.count_samples:

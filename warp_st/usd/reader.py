@@ -40,6 +40,7 @@ from warp_st.core.conventions import DEFAULT_RESOLUTION, Precision
 from warp_st.core.limits import MAX_BOUNCES, MAX_PIXELS, MAX_SAMPLES
 from warp_st.core.scene import DEFAULT_CAMERA, Body, Light, RenderSettings, Scene, SceneError, Surface
 from warp_st.usd import attributes as A
+from warp_st.usd.animation import sample_motion, xform_sample_times
 from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
 from warp_st.usd.camera import CameraEvaluator, frame_bounds
 from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
@@ -66,10 +67,11 @@ class _BodyBuilder:
     decoupled: bool = False
     surfaces: list[Surface] = field(default_factory=list)
     api: bool = False  # carries SpacetimeBodyAPI (else: a gprim at rest, a body of its own)
+    motion: object = None  # BodyMotion when USD animates it (docs/spec.md §2.1)
 
     def build(self) -> Body:
         return Body(self.prim_path, tuple(self.surfaces), self.origin, self.velocity,
-                    self.reference_time, self.lifetime, self.decoupled)
+                    self.reference_time, self.lifetime, self.decoupled, self.motion)
 
 
 def _translation(matrix: Gf.Matrix4d) -> np.ndarray:
@@ -193,6 +195,7 @@ class _StageReader:
             if has_api(prim, SPACETIME_BODY_API):
                 v, t_ref, life, decoupled = body_kinematics(self.where, prim)
                 body = _BodyBuilder(str(path), _translation(self._world(prim)), v, t_ref, life, decoupled, api=True)
+                self._animate(body, prim)
                 owners.append((path, body))
                 self.bodies.append(body)
             if hidden is not None:
@@ -209,9 +212,13 @@ class _StageReader:
             if prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
                 self._light(prim)
             elif prim.IsA(UsdGeom.PointInstancer):
+                if not owners:  # a body of its own: its honoured samples are not warned by its checks
+                    self._animation_samples(prim)
                 self._owner(owners, prim).surfaces.extend(self.gprims.instancer_surfaces(prim))
                 it.PruneChildren()  # prototypes are drawn only through their instances
             elif prim.IsA(UsdGeom.Gprim):
+                if not owners:
+                    self._animation_samples(prim)
                 surface = self.gprims.surface(prim)
                 if surface is not None:
                     self._owner(owners, prim).surfaces.append(surface)
@@ -225,8 +232,47 @@ class _StageReader:
         if owners:
             return owners[-1][1]
         body = _BodyBuilder(str(prim.GetPath()), _translation(self._world(prim)))
+        self._animate(body, prim)
         self.bodies.append(body)
         return body
+
+    def _animation_samples(self, prim) -> tuple[float, ...]:
+        """USD's sample times of the xformOps moving ``prim`` (none: not animated, or a
+        stage whose samples cannot be listed); their prims' xformOp samples are honoured."""
+        if not self.notes.count_samples:
+            return ()
+        samples = xform_sample_times(prim)
+        if len(samples) < 2:
+            return ()
+        p = prim
+        while p and not p.IsPseudoRoot():
+            self.notes.animated.add(str(p.GetPath()))
+            p = p.GetParent()
+        return samples
+
+    def _animate(self, body: _BodyBuilder, prim) -> None:
+        """Sample ``prim``'s animation into ``body.motion`` (docs/spec.md §2.1): a coupled
+        SpacetimeBodyAPI body at >= c is bad input; a body of its own turns decoupled."""
+        samples = self._animation_samples(prim)
+        if not samples:
+            return
+        body.motion = sample_motion(self.where, prim, body.velocity, body.reference_time, samples)
+        if body.decoupled:
+            return
+        speeds = np.linalg.norm(body.motion.chord_velocities(), axis=1)
+        if not speeds.size or not float(speeds.max()) >= 1.0:
+            return
+        k = int(np.argmax(speeds))
+        t = body.motion.times
+        lo = max(s for s in samples if s <= t[k])
+        hi = min(s for s in samples if s >= t[k + 1])
+        message = (f"the animated pivot moves at {float(speeds[k]):.6g} c between time codes {lo:g} and {hi:g} "
+                   f"(>= the speed of light)")
+        if body.api:
+            raise self.where.error(prim, "xformOpOrder", f"{message} on a Lorentz-coupled body; slow the animation "
+                                                         "or set spacetime:lorentzDecoupled = true")
+        body.decoupled = True
+        self.notes.warn(prim, "xformOpOrder", f"{message}: rendered Lorentz-decoupled", "Superluminal")
 
     # -- lights ---------------------------------------------------------------------
     def _light(self, prim) -> None:
@@ -308,6 +354,9 @@ def _bounds(bodies, stage) -> tuple[np.ndarray, np.ndarray]:
     for body in bodies:
         shifts = [np.zeros(3)] if not body.velocity.any() else [body.velocity * (t - body.reference_time)
                                                                   for t in times]
+        if body.motion is not None:  # the pivot's path (orientation left out: framing only)
+            shifts = shifts + list(body.motion.pivot[::max(1, len(body.motion.times) // 64)]
+                                   - body.motion.static_pivot)
         for surface in body.surfaces:
             points = surface.points[np.unique(surface.triangles)]
             for shift in shifts:

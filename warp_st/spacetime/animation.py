@@ -1,0 +1,275 @@
+"""Animated rigid bodies as pieces of uniform motion, within half a pixel (docs/spec.md §2.1).
+
+The reader samples each animated body's worldline through USD (``Body.motion``: probes of
+the pivot o(t) and the linear part L(t)). Here each body is cut at probes into pieces;
+a piece over [a, b] moves its pivot uniformly along the chord o(a) -> o(b), holds the
+orientation of its middle probe and (coupled) the contraction of its chord velocity:
+every piece is a uniform-motion body (docs/spec.md §2), so the rest of the renderer (both
+tracing paths, shading, Doppler, proper time) takes it as is. The pieces' world-tubes meet
+at the pivot.
+
+Error. A body point r (about the pivot, |r| <= R) is modelled at o_p(t) + r G_p and USD puts
+it at o(t) + r G(t), G = L A(v) (A the contraction of the instantaneous velocity; I for
+decoupled bodies), so the distance is at most |o_p(t) - o(t)| + R |G_p - G(t)|_2, taken at
+every probe (probe intervals split evenly where one would not fit, ``_dense_times``:
+between probes USD is linear within the reader's PROBE_TOLERANCE). Pieces are grown
+greedily while that stays under the tolerance of every probe they hold: ``pixels`` x the
+smallest pixel angle x the nearest distance at which any camera can see the body near that
+probe (its pivot's distance minus R) / the camera's angular magnification (``adaptive``'s
+rule for spheres). Pieces overlap in time at their seams (``_body_cuts``).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from warp_st.core.lorentz import contraction_matrix
+from warp_st.core.scene import Body, Scene
+from warp_st.spacetime.adaptive import _camera_stretch, min_pixel_angle
+
+__all__ = ["animation_cuts", "animated_bodies", "piece_bodies", "body_radius", "FLOOR_FRACTION"]
+
+#: Where no bound applies (a camera inside the body's reach, a decoupled body at >= c) the
+#: tolerance is this fraction of the body's radius about its pivot.
+FLOOR_FRACTION = 1.0e-4
+
+
+def body_radius(body: Body) -> float:
+    """The largest distance of a body point from its pivot at the start time code, R."""
+    if body.motion is None or not body.surfaces:
+        return 0.0
+    pts = np.concatenate([np.asarray(s.points, dtype=np.float64) for s in body.surfaces])
+    return float(np.linalg.norm(pts - body.motion.static_pivot, axis=1).max()) if len(pts) else 0.0
+
+
+def _contractions(v: np.ndarray, decoupled: bool) -> np.ndarray:
+    """A(v) per row of ``v``, (K, 3, 3)."""
+    eye = np.broadcast_to(np.eye(3), (len(v), 3, 3)).copy()
+    if decoupled:
+        return eye
+    speed = np.linalg.norm(v, axis=1)
+    vhat = np.divide(v, speed[:, None], out=np.zeros_like(v), where=speed[:, None] > 0.0)
+    k = 1.0 - np.sqrt(np.clip(1.0 - speed * speed, 0.0, None))
+    return eye - k[:, None, None] * vhat[:, :, None] * vhat[:, None, :]
+
+
+def _tolerances(body: Body, radius: float, cameras, angle: float, pixels: float) -> np.ndarray:
+    """The distance tolerance at each probe of ``body`` (see the module docstring)."""
+    m = body.motion
+    floor = FLOOR_FRACTION * max(radius, 1e-12)
+    stretch = 1.0
+    if body.decoupled:
+        speed = float(np.linalg.norm(m.chord_velocities(), axis=1).max())
+        stretch = np.inf if speed >= 1.0 else 1.0 / np.sqrt(1.0 - speed * speed)
+    tol = np.full(len(m.times), np.inf)
+    for cam in cameras:
+        s = stretch * _camera_stretch(cam)
+        d = np.linalg.norm(m.pivot - np.asarray(cam.position, dtype=np.float64), axis=1) - radius
+        tol = np.minimum(tol, np.where(d > 0.0, pixels * angle * d / s if np.isfinite(s) else 0.0, 0.0))
+    return np.maximum(tol, floor)
+
+
+def _dense_times(body: Body, tol: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """The probes' times with each probe interval split evenly until the orientation and
+    contraction change across one part costs at most half the tolerance (so one part is
+    always a piece that fits), and the tolerance at each time (its interval's smaller)."""
+    m = body.motion
+    g = m.linear @ _contractions(np.vstack([m.chord_velocities(), m.chord_velocities()[-1:]]), body.decoupled)
+    change = radius * np.linalg.norm(np.diff(g, axis=0), ord=2, axis=(1, 2))
+    t_tol = np.minimum(tol[:-1], tol[1:])
+    parts = np.clip(np.ceil(2.0 * change / t_tol), 1, MAX_PARTS).astype(np.int64)
+    times = [m.times[:1]]
+    tols = [tol[:1]]
+    for k, n in enumerate(parts):
+        times.append(m.times[k] + (m.times[k + 1] - m.times[k]) * np.arange(1, n + 1) / n)
+        tols.append(np.full(n, t_tol[k]))
+    times, tols = np.concatenate(times), np.concatenate(tols)
+    times[-1] = m.times[-1]
+    return times, tols
+
+
+#: Most parts one probe interval is split into for the cutting (a tolerance far below the
+#: probes' spacing: a camera almost inside the body's reach).
+MAX_PARTS = 64
+
+
+def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[tuple[float, float, float], ...]:
+    """(cut time, start time, orientation time) per piece of ``body`` (the first row only
+    opens the first piece): a piece moves along the chord between its cut and the next,
+    exists from its start (<= its cut) and holds the orientation of the probe at its
+    orientation time (its middle probe).
+
+    Error bound of a piece [k, j] at each (densified) probe m it holds (module docstring):
+    |o(t_m) - chord(t_m)| + R (|L_m - L_mid|_2 + s_m |A(v_chord) - A(v_m)|_F), s_m the
+    largest singular value of L_m, and |L_m - L_mid|_2 at most the sum of the probe-to-probe
+    changes between them (no matrix norm per query). Pieces are grown within half the
+    tolerance, then each is extended back in time over its predecessor while it stays within
+    the whole tolerance: where two pieces' surfaces differ at a seam, a ray crossing the seam
+    between them would otherwise enter the earlier one through its cap (no surface) and see
+    its far side; in the overlap it meets the later one's surface first."""
+    t, tol = _dense_times(body, 0.5 * tol, radius)
+    tol = 2.0 * tol
+    p, lin = body.motion.at(t)
+    turn = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(lin, axis=0), ord=2, axis=(1, 2)))])
+    scale = np.linalg.norm(lin, ord=2, axis=(1, 2))
+    vel = np.diff(p, axis=0) / np.diff(t)[:, None]
+    a = _contractions(vel, body.decoupled)
+    # The contraction changes only where the pivot's velocity does (never at rest or uniform).
+    moving = not body.decoupled and bool(np.ptp(vel, axis=0).max() > 0.0)
+
+    def errors(k: int, j: int, lo: int, hi: int) -> np.ndarray:
+        """Bound per probe in [lo, hi] of the piece [k, j] (lo <= k < j; hi <= j)."""
+        c = (k + j) // 2
+        v = (p[j] - p[k]) / (t[j] - t[k])
+        dev = np.linalg.norm(p[lo:hi + 1] - (p[k] + v * (t[lo:hi + 1] - t[k])[:, None]), axis=1)
+        rot = np.abs(turn[lo:hi + 1] - turn[c])
+        if moving:  # the contraction of either interval in [lo, hi] the probe ends
+            da = np.linalg.norm(a[lo:hi] - contraction_matrix(v, False), axis=(1, 2))
+            probes = np.arange(hi - lo + 1)
+            left, right = np.maximum(probes - 1, 0), np.minimum(probes, hi - lo - 1)
+            rot = rot + scale[lo:hi + 1] * np.maximum(da[left], da[right])
+        return dev + radius * rot
+
+    n = len(t)
+    cuts = [0]
+    k = 0
+    while k < n - 1:
+        def fits(j):
+            return bool((errors(k, j, k, j) <= 0.5 * tol[k:j + 1]).all())
+        lo, step = k + 1, 1  # lo always fits (a single part is the finest piece)
+        while lo + step <= n - 1 and fits(lo + step):
+            lo += step
+            step *= 2
+        hi = min(lo + step, n)  # first known not to fit (or past the end)
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if fits(mid):
+                lo = mid
+            else:
+                hi = mid
+        cuts.append(lo)
+        k = lo
+    rows = [(float(t[0]), float(t[0]), float(t[0]))]
+    for q in range(1, len(cuts)):
+        k, j = cuts[q - 1], cuts[q]
+        start = k
+        if q > 1:  # extend back over the previous piece while within the whole tolerance
+            prev = cuts[q - 2]
+            bad = np.nonzero(errors(k, j, prev, k) > tol[prev:k + 1])[0]
+            start = min(prev + (int(bad[-1]) + 1 if bad.size else 0), k)
+        rows.append((float(t[j]), float(t[start]), float(t[(k + j) // 2])))
+    return tuple(rows)
+
+
+def animation_cuts(scene: Scene, cameras, *, width: int, height: int, pixels: float = 0.5) -> tuple:
+    """((body index, cut times), ...) for every animated body of ``scene`` (empty: none),
+    the pieces within ``pixels`` pixels for every camera state of ``cameras``."""
+    cameras = list(cameras)
+    animated = [i for i, b in enumerate(scene.bodies) if b.motion is not None and b.surfaces]
+    if not animated:
+        return ()
+    angle = min((min_pixel_angle(c, width, height) for c in cameras), default=np.inf)
+    out = []
+    for i in animated:
+        body = scene.bodies[i]
+        radius = body_radius(body)
+        out.append((i, _body_cuts(body, _tolerances(body, radius, cameras, angle, pixels), radius)))
+    return tuple(out)
+
+
+def _moved(surface, linear: np.ndarray, shift: np.ndarray):
+    """``surface`` under p -> p @ linear + shift (normals by the inverse transpose)."""
+    points = np.asarray(surface.points, dtype=np.float64) @ linear + shift
+    normals = surface.normals
+    if normals is not None:
+        n = np.asarray(normals, dtype=np.float64) @ np.linalg.inv(linear).T
+        normals = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    move = np.eye(4)
+    move[:3, :3], move[3, :3] = linear, shift
+    sphere, quadric = surface.sphere, surface.quadric  # the analytic shapes move with the points
+    if sphere is not None:
+        sphere = (sphere[0], np.asarray(sphere[1], dtype=np.float64).reshape(4, 4) @ move)
+    if quadric is not None:
+        quadric = (*quadric[:4], np.asarray(quadric[4], dtype=np.float64).reshape(4, 4) @ move)
+    return dataclasses.replace(surface, points=points, normals=normals, sphere=sphere, quadric=quadric)
+
+
+def piece_bodies(body: Body, cuts: tuple[tuple[float, float, float], ...]) -> list[Body]:
+    """``body``'s pieces of uniform motion: held before the first probe, one per row after
+    the first of ``_body_cuts`` (a piece moves from the previous row's cut to its own,
+    exists from its start, holds the orientation at its orientation time), held after the
+    last; cut to the body's lifetime.
+
+    Proper time: a coupled piece's reference event is put on its worldline where the
+    integral of dt / gamma from ``body.reference_time`` along the pieces would be 0, so
+    §2's tau = gamma ((t - t_ref) - v.(x - o)) continues that integral."""
+    m = body.motion
+    rows = np.array(cuts, dtype=np.float64).reshape(-1, 3)
+    times = rows[:, 0]
+    p, _ = m.at(times)
+    _, mid = m.at(rows[1:, 2])
+    spans = [(-np.inf, times[0], times[0], p[0], m.hold_velocity, m.linear[0])]
+    for k in range(len(times) - 1):
+        a, b = times[k], times[k + 1]
+        spans.append((rows[k + 1, 1], b, a, p[k], (p[k + 1] - p[k]) / (b - a), mid[k]))
+    spans.append((times[-1], np.inf, times[-1], p[-1], m.hold_velocity, m.linear[-1]))
+    inv_gamma = [1.0 if body.decoupled else float(np.sqrt(max(1.0 - float(v @ v), 0.0))) for *_, v, _l in spans]
+    # F(t) = integral of dt / gamma from t[0]: at each span's anchor time (its start, the
+    # first span's end), then shifted so that F(t_ref) = 0.
+    anchor_f, f = [0.0], 0.0
+    for (_lo, hi, t_anchor, *_), g in zip(spans[1:], inv_gamma[1:]):
+        anchor_f.append(f)
+        if np.isfinite(hi):
+            f += (hi - t_anchor) * g  # over the piece's own span (not its overlap with the last)
+    t_ref = body.reference_time
+    f_ref = next(((t_ref - s[2]) * g + f for q, (s, g, f) in enumerate(zip(spans, inv_gamma, anchor_f))
+                  if (s[0] if q == 0 else s[2]) <= t_ref <= s[1]), 0.0)
+    pieces = []
+    life_lo, life_hi = body.lifetime
+    for (lo, hi, t_anchor, o_anchor, v, linear), g, f in zip(spans, inv_gamma, anchor_f):
+        lo, hi = max(lo, life_lo), min(hi, life_hi)
+        if not lo < hi:
+            continue
+        tau = f - f_ref  # proper time at the anchor
+        ref = t_ref if body.decoupled else t_anchor - tau / g if g > 0.0 else t_anchor
+        origin = o_anchor + v * (ref - t_anchor)
+        shift = origin - m.static_pivot @ linear
+        pieces.append(dataclasses.replace(body, surfaces=tuple(_moved(s, linear, shift) for s in body.surfaces),
+                                          origin=origin, velocity=np.asarray(v, dtype=np.float64).copy(),
+                                          reference_time=float(ref), lifetime=(float(lo), float(hi)), motion=None))
+    return pieces
+
+
+def animated_bodies(scene: Scene, cuts: tuple) -> tuple[tuple[Body, ...], np.ndarray]:
+    """The bodies of ``scene`` with every animated one replaced by its pieces (in place,
+    stage order kept) and each new body's index in ``scene.bodies``, (B',) int32."""
+    chosen = dict(cuts)
+    bodies, object_of = [], []
+    for i, body in enumerate(scene.bodies):
+        parts = piece_bodies(body, chosen[i]) if i in chosen else [body]
+        bodies.extend(parts)
+        object_of.extend([i] * len(parts))
+    return tuple(bodies), np.array(object_of, dtype=np.int32)
+
+
+def animation_report(scene: Scene, cameras, *, width: int, height: int) -> list[tuple[str, str]]:
+    """(body prim path, one line) per animated body: its USD samples, its pivot's speed
+    range and the pieces it is rendered as for ``cameras`` at ``width`` x ``height``."""
+    cuts = dict(animation_cuts(scene, cameras, width=width, height=height)) if cameras else {}
+    lines = []
+    for i, body in enumerate(scene.bodies):
+        m = body.motion
+        if m is None:
+            continue
+        speeds = np.linalg.norm(m.chord_velocities(), axis=1)
+        turn = np.linalg.norm(np.diff(m.linear, axis=0), ord=2, axis=(1, 2)) / np.diff(m.times)
+        fastest = float((speeds + body_radius(body) * turn).max())  # no body point moves faster
+        samples = m.sample_times
+        text = (f"animated: {len(samples)} time samples ({samples[0]:g} to {samples[-1]:g}), pivot speed "
+                f"{float(speeds.min()):.4g} to {float(speeds.max()):.4g} c, body points up to {fastest:.4g} c"
+                f" ({'Lorentz-decoupled' if body.decoupled else 'coupled'})")
+        if i in cuts:
+            text += f"; {len(cuts[i]) + 1} motion segments at {width} x {height}"
+        lines.append((body.prim_path, text))
+    return lines
