@@ -45,3 +45,14 @@ def test_starbow_example_flies_through_the_dome(capsys, tmp_path):
         top = float(line.rsplit(" to ", 1)[1])
         assert abs(top / math.sqrt((1 + beta) / (1 - beta)) - 1.0) < 1e-2  # printed to 2 decimals
     assert (tmp_path / "starbow.png").exists()
+
+
+def test_aberration_sky_example_sees_each_sky_direction_where_aberration_puts_it(capsys, tmp_path):
+    """The thesis's observers under a dome whose texels encode their own lab direction: every
+    sky pixel's decoded direction is the camera's pixel direction carried to the lab by the
+    aberration (relativistic and classical), to within the encoding's half-texel diagonal
+    (the example exits 1 otherwise)."""
+    example = load_example("aberration_sky.py")
+    assert example.main(["--out", str(tmp_path), "--width", "48", "--height", "48"]) == 0
+    out = capsys.readouterr().out
+    assert "Towards_0866_Relativistic" in out and "Left_0866_Classical" in out
