@@ -115,3 +115,16 @@ def test_table_interpolation_is_within_its_stated_bound():
                                             searchlight=False)
             worst = max(worst, np.abs(interpolated[:, k] - exact).max())
     assert dc.INTERPOLATION_ERROR / 2 < worst < dc.INTERPOLATION_ERROR
+
+
+def test_loading_the_colour_library_leaves_numpy_printing_alone():
+    """colour-science switches NumPy to its 1.13 printing when imported; ``inspect`` prints
+    exact float64 times with ``str``, so the import must not leak (it once did: 12 digits).
+    Run in a fresh interpreter: this process may have imported it already."""
+    import subprocess
+    import sys
+
+    code = ("import numpy as np\nfrom warp_st.core import doppler_colour as dc\ndc.cmfs()\n"
+            "print(str(np.float64(5.187856674200006)), np.get_printoptions()['legacy'])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["5.187856674200006", "False"], out

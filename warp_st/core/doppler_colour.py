@@ -51,10 +51,15 @@ WHITE_K = 6504.0
 
 @functools.lru_cache(maxsize=None)
 def _colour():
-    with warnings.catch_warnings():  # colour warns that optional SciPy features are off
+    """The colour-science package, imported without side effects on the process: it warns
+    that optional SciPy features are off, and it switches NumPy's printing to its 1.13
+    legacy mode (``str`` of a float64 to 12 digits), which is undone."""
+    printing = np.get_printoptions()
+    with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         import colour
         import colour.recovery
+    np.set_printoptions(**printing)
     return colour
 
 
