@@ -7,7 +7,9 @@ import pytest
 
 from warp_st.core import doppler_colour as dc
 
-with warnings.catch_warnings():  # colour warns that optional SciPy features are off
+# colour warns that optional SciPy features are off, and switches NumPy's printing to its
+# 1.13 legacy mode: neither is for the rest of the suite.
+with warnings.catch_warnings(), np.printoptions():
     warnings.simplefilter("ignore")
     import colour
     from colour.recovery import RGB_to_sd_Smits1999

@@ -55,11 +55,13 @@ def add_arguments(parser) -> None:
 
 
 def _fmt(value, dtype) -> str:
-    """Exact shortest text of a numpy scalar (float32 prints as float32, not widened)."""
+    """Exact shortest text of a numpy scalar (float32 prints as float32, not widened),
+    whatever another library set NumPy's printing to (colour-science sets its 1.13 mode)."""
     dtype = np.dtype(dtype)
     if dtype.kind in "ui":
         return str(int(value))
-    return str(dtype.type(value))
+    with np.printoptions(legacy=False):
+        return str(dtype.type(value))
 
 
 def _stats_row(name: str, plane: np.ndarray) -> str:
