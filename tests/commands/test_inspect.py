@@ -480,3 +480,13 @@ def test_diff_structure_and_bad_input(tmp_path, capsys):
     assert code == 2 and "missing.exr" in one_error_line(err)
     code, _, err = run(capsys, "inspect", pa, "--diff", fewer, "--png", tmp_path / "x.png", "--channel", "Z")
     assert code == 2 and "--diff" in one_error_line(err)
+
+
+def test_printed_values_are_exact_whatever_numpy_prints():
+    """colour-science switches NumPy's printing to its 1.13 legacy mode (12 digits for a
+    float64, 8 for a float32) when imported; inspect's text stays the shortest exact one."""
+    from warp_st.commands.inspect import _fmt
+
+    with np.printoptions(legacy="1.13"):
+        assert _fmt(np.float64(5.187856674200006), np.float64) == "5.187856674200006"
+        assert _fmt(np.float32(0.0022515059), np.float32) == "0.0022515059"
