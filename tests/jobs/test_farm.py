@@ -158,11 +158,18 @@ def _frames_in(label: str) -> list[int]:
     return frames
 
 
+#: Frames of the interrupted farm run.
+FARM_FRAMES = 120
+
+
 def test_cli_interrupt_then_resume_on_workers(tmp_path):
     """warp-st render --workers 2: SIGINT after the first file stops with exit 130 and one
     line naming complete frames (the frames the workers hold are finished: no temporary
-    file is left); --resume then renders exactly the missing frames."""
-    argv = [sys.executable, "-m", "warp_st", "render", str(PARADE), "-o", "seq.####.exr", "--frames", "0-39",
+    file is left); --resume then renders exactly the missing frames. FARM_FRAMES frames of
+    96 x 54 take two workers well over a second, so the signal arrives mid-run even on a
+    loaded machine (40 once finished first there)."""
+    argv = [sys.executable, "-m", "warp_st", "render", str(PARADE), "-o", "seq.####.exr",
+            "--frames", f"0-{FARM_FRAMES - 1}",
             "--width", "96", "--height", "54", "--workers", "2"]
     code, err = signal_after(argv, tmp_path, lambda: bool(list(tmp_path.glob("seq.*.exr"))), signal.SIGINT)
     assert code == 130, err
@@ -170,12 +177,12 @@ def test_cli_interrupt_then_resume_on_workers(tmp_path):
     assert line.startswith("warp-st: interrupted; frames complete: ") and "--resume" in line, line
     listed = _frames_in(line.split("frames complete: ")[1].split(" (")[0])
     written = sorted(tmp_path.glob("seq.*.exr"))
-    assert 1 <= len(written) < 40, "SIGINT came too late to test anything"
+    assert 1 <= len(written) < FARM_FRAMES, "SIGINT came too late to test anything"
     assert all(exr.is_complete_exr(p) for p in written)
     # Every frame the message names is complete (a worker may have started one more in the
     # instant between the interrupt and the cancel: it is complete but not named).
     assert listed and {f"seq.{f:04d}.exr" for f in listed} <= {p.name for p in written}
-    assert f"({len(listed)} of 40)" in line
+    assert f"({len(listed)} of {FARM_FRAMES})" in line
     no_temp_files(tmp_path)
     before = {p.name: p.read_bytes() for p in written}
-    resume_renders_the_rest(argv, tmp_path, before, 40)
+    resume_renders_the_rest(argv, tmp_path, before, FARM_FRAMES)
