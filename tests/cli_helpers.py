@@ -86,12 +86,19 @@ def resume_renders_the_rest(argv: list[str], folder: Path, before: dict[str, byt
     assert all((folder / name).read_bytes() == data for name, data in before.items())
 
 
+def _default_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def signal_after(argv: list[str], cwd: Path, ready, sig: signal.Signals, timeout: float = 120.0):
     """Run ``argv`` (a child warp-st), send it ``sig`` once ``ready()`` holds, and return
     (exit code, stderr). Fails if ``ready()`` never held; the child is killed if it
     outlives the test."""
+    # The child starts as a terminal's foreground job does, with SIGINT at its default: an
+    # ignored disposition in this process (a native library of an earlier test may set one;
+    # Python cannot see it) would be inherited across exec and swallow the signal.
     proc = subprocess.Popen(argv, env=child_env(), cwd=str(cwd), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=_default_sigint)
     try:
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline and not ready():
