@@ -173,3 +173,30 @@ def test_validate_lists_animated_bodies(tmp_path, capsys):
     cameras = [scene.camera_state(None, float(f)) for f in np.linspace(0, 100, 101)]
     (cuts,) = animation_cuts(scene, cameras, width=DEFAULT_RESOLUTION[0], height=DEFAULT_RESOLUTION[1])
     assert int(match.group(2)) == len(cuts[1]) + 1
+
+
+def test_a_camera_time_sampled_in_place_is_at_rest(tmp_path):
+    """A camera whose translate is time-sampled but does not move (equal samples) beside a
+    constant spacetime:time is at rest: not an animated camera whose time stands still (that
+    stays bad input, naming spacetime:time, where the camera does move). Found by the fuzz
+    test (tests/usd/test_fuzz_usd.py, WARP_ST_FUZZ_SEED=2659931714)."""
+    def stage(samples):
+        return '''#usda 1.0
+def Camera "Cam" (prepend apiSchemas = ["SpacetimeCameraAPI"])
+{
+    custom double spacetime:time = 5
+    double3 xformOp:translate.timeSamples = %s
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Cube "C"
+{
+    double3 xformOp:translate = (0, 0, -6)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+''' % samples
+    still = warp_st.load(write(tmp_path, "still.usda", stage("{ 0: (0, 0, 0), 1: (0, 0, 0) }")))
+    cam = still.camera_state(still.default_camera, 0.0)
+    assert not np.any(cam.velocity) and cam.time == 5.0
+    moving = warp_st.load(write(tmp_path, "moving.usda", stage("{ 0: (0, 0, 0), 1: (0.5, 0, 0) }")))
+    with pytest.raises(SceneError, match="spacetime:time"):
+        moving.camera_state(moving.default_camera, 0.0)

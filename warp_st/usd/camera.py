@@ -194,19 +194,23 @@ class CameraEvaluator:
     def _animated_velocity(self, prim, frame: float, position: np.ndarray, time: float) -> np.ndarray:
         """d(position)/d(t_c) of USD's interpolation at ``frame`` (docs/spec.md §2.1): a
         forward difference (the motion from the camera event on; exact between linear
-        samples), zero when no xformOp of the camera or its ancestors is time-sampled."""
+        samples), zero when no xformOp of the camera or its ancestors is time-sampled or the
+        camera does not move there."""
         if len(xform_sample_times(prim)) < 2:
             return np.zeros(3)
         w = self.where
         step = ANIMATION_STEP * max(1.0, abs(frame))
         tc = Usd.TimeCode(frame + step)
         later = world_transform(w, prim, lambda: UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(tc), tc)
+        moved = np.array(later.ExtractTranslation(), dtype=np.float64) - position
+        if not moved.any():  # time-sampled but still here (equal samples, or a hold): at rest
+            return np.zeros(3)
         t_later = A.real(w, prim, "spacetime:time", None, time=tc)
         dt = step if t_later is None else t_later - time
         if not dt > 0.0:
             raise w.error(prim, "spacetime:time", f"must increase with the time code where the camera is animated "
                                                   f"(time code {frame:g})")
-        return (np.array(later.ExtractTranslation(), dtype=np.float64) - position) / dt
+        return moved / dt
 
 
 #: The time-code step of an animated camera's finite-difference velocity, relative to max(1, |frame|).
