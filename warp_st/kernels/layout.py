@@ -24,3 +24,9 @@ LINK_SHIFT = 3
 LINK_MASK = (1 << LINK_SHIFT) - 1
 #: Depth bound of the wide tree (two binary levels per wide level); the traversal stack size.
 MAX_WIDE_DEPTH = (MAX_DEPTH + 1) // 2
+
+#: The 4th "barycentric" of an analytic hit (kernels/trace_rigid.py), whose first three are
+#: then the unit lab normal; barycentrics lie in [0, 1], so any value above ANALYTIC_TEST
+#: marks one (shade.shading_normal, the mirror's facet fallback).
+ANALYTIC = 2.0
+ANALYTIC_TEST = 1.5

@@ -8,10 +8,10 @@ import functools
 
 import warp as wp
 
-from warp_st.kernels.layout import PRIMITIVES
+from warp_st.kernels.layout import ANALYTIC_TEST, PRIMITIVES
 from warp_st.kernels.probe import make_probe
-from warp_st.kernels.sky import make_sky
 from warp_st.kernels.shade import make_shade
+from warp_st.kernels.sky import make_sky
 from warp_st.kernels.spectrum import make_spectrum
 from warp_st.kernels.texture import make_textures
 from warp_st.kernels.trace import make_trace
@@ -248,7 +248,7 @@ def _make_render(scalar, k, trace, Geometry):
             # An interpolated normal can send a grazing reflection into the facet's own
             # plane (it would re-enter a convex mirror): reflect about the facet then.
             facet = shd.tri_normal[tri]
-            if lam[3] > scalar(1.5):  # an analytic hit: its normal is the surface's
+            if lam[3] > scalar(ANALYTIC_TEST):  # an analytic hit: its normal is the surface's
                 facet = normal
             if wp.dot(facet, n + v_mirror) > scalar(0.0):
                 facet = -facet

@@ -4,6 +4,7 @@ Pure Warp device code. Lights are at rest in the lab (docs/spec.md §3).
 """
 import warp as wp
 
+from warp_st.kernels.layout import ANALYTIC_TEST
 from warp_st.kernels.sky import make_sky
 from warp_st.kernels.texture import make_textures
 
@@ -66,7 +67,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         """
         tri = geo.prim_tri[prim]
         normal = shd.tri_normal[tri]
-        if lam[3] > scalar(1.5):
+        if lam[3] > scalar(ANALYTIC_TEST):
             normal = vec3(lam[0], lam[1], lam[2])
         elif shd.tri_smooth[tri] != 0:
             idx = geo.prim_vidx[prim]

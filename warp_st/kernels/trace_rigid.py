@@ -43,13 +43,11 @@ root lies behind the ray unless it leaves into the inside (every shape is convex
 
 import warp as wp
 
+from warp_st.kernels.layout import ANALYTIC
 from warp_st.kernels.quadrics import make_quadrics
 from warp_st.kernels.traverse import make_box_ops, make_traverse
 
-__all__ = ["make_trace_rigid", "ANALYTIC"]
-
-#: The 4th "barycentric" of an analytic hit: its first three are the unit lab normal.
-ANALYTIC = 2.0
+__all__ = ["make_trace_rigid"]
 
 
 def make_trace_rigid(scalar):
