@@ -57,14 +57,15 @@ def test_probes_follow_usd_at_fractional_time_codes(tmp_path):
 
 
 def test_coupled_body_at_light_speed_is_exit_2(tmp_path, capsys):
-    """Between time codes 10 and 20 the pivot moves 12 units: 1.2c."""
+    """Between time codes 10 and 20 the pivot moves 12 units: 1.2c. The error names the xformOp
+    that moves it (the attribute at fault, docs/spec.md §7)."""
     path = write(tmp_path, "fast.usda", _body(FAST))
     out = tmp_path / "out.exr"
     code = main(["render", path, "-o", str(out), "--width", "16", "--height", "16", "--quiet"])
     err = capsys.readouterr().err
     assert code == 2 and not out.exists()
     (line,) = err.strip().splitlines()
-    assert line == (f"warp-st: error: {path}: /Ship: xformOpOrder: the animated pivot moves at 1.2 c between "
+    assert line == (f"warp-st: error: {path}: /Ship: xformOp:translate: the animated pivot moves at 1.2 c between "
                     "time codes 10 and 20 (>= the speed of light) on a Lorentz-coupled body; slow the animation "
                     "or set spacetime:lorentzDecoupled = true")
 

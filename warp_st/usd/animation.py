@@ -39,6 +39,19 @@ def xform_sample_times(prim) -> tuple[float, ...]:
     return tuple(sorted(times))
 
 
+def animated_op(prim):
+    """(the prim, the xformOp attribute name) of the first time-sampled xformOp of ``prim``,
+    else of its nearest ancestor with one: what moves it. (prim, "xformOpOrder") if none."""
+    p = prim
+    while p and not p.IsPseudoRoot():
+        if p.IsA(UsdGeom.Xformable):
+            for op in UsdGeom.Xformable(p).GetOrderedXformOps():
+                if op.GetNumTimeSamples() > 1:
+                    return p, op.GetName()
+        p = p.GetParent()
+    return prim, "xformOpOrder"
+
+
 def sample_motion(where: Where, prim, velocity: np.ndarray, reference_time: float,
                   samples: tuple[float, ...]) -> BodyMotion:
     """The probes of ``prim``'s animated worldline over USD's ``samples`` (>= 2 times), the

@@ -40,7 +40,7 @@ from warp_st.core.conventions import DEFAULT_RESOLUTION, Precision
 from warp_st.core.limits import MAX_BOUNCES, MAX_PIXELS, MAX_SAMPLES
 from warp_st.core.scene import DEFAULT_CAMERA, Body, Light, RenderSettings, Scene, SceneError, Surface
 from warp_st.usd import attributes as A
-from warp_st.usd.animation import sample_motion, xform_sample_times
+from warp_st.usd.animation import animated_op, sample_motion, xform_sample_times
 from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
 from warp_st.usd.camera import CameraEvaluator, frame_bounds
 from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
@@ -266,13 +266,15 @@ class _StageReader:
         t = body.motion.times
         lo = max(s for s in samples if s <= t[k])
         hi = min(s for s in samples if s >= t[k + 1])
-        message = (f"the animated pivot moves at {float(speeds[k]):.6g} c between time codes {lo:g} and {hi:g} "
-                   f"(>= the speed of light)")
+        owner, op = animated_op(prim)  # the attribute at fault: the xformOp that moves the body
+        whose = "" if owner == prim else f" of {prim.GetPath()}"
+        message = (f"the animated pivot{whose} moves at {float(speeds[k]):.6g} c between time codes {lo:g} and "
+                   f"{hi:g} (>= the speed of light)")
         if body.api:
-            raise self.where.error(prim, "xformOpOrder", f"{message} on a Lorentz-coupled body; slow the animation "
-                                                         "or set spacetime:lorentzDecoupled = true")
+            raise self.where.error(owner, op, f"{message} on a Lorentz-coupled body; slow the animation "
+                                              "or set spacetime:lorentzDecoupled = true")
         body.decoupled = True
-        self.notes.warn(prim, "xformOpOrder", f"{message}: rendered Lorentz-decoupled", "Superluminal")
+        self.notes.warn(owner, op, f"{message}: rendered Lorentz-decoupled", "Superluminal")
 
     # -- lights ---------------------------------------------------------------------
     def _light(self, prim) -> None:
