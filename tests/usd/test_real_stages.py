@@ -102,7 +102,7 @@ def test_nothing_to_render(tmp_path, capsys):
     path.write_text(HEADER.format(up="Y") + 'def SphereLight "Lamp"\n{\n}\n')
     code, _, err = run(capsys, "render", path, "-o", tmp_path / "x.exr", *SIZE, "--quiet")
     lines = err.splitlines()
-    assert code == 2 and lines[-1].startswith(f"warp-st: error: {path}: nothing to render"), err
+    assert code == 2 and len(lines) == 1 and lines[0].startswith(f"warp-st: error: {path}: nothing to render"), err
     assert not list(tmp_path.glob("*.exr"))
     code, out, _ = run(capsys, "validate", path)
     assert code == 0 and out.splitlines()[0].startswith(f"WARNING {path}: the stage has no camera and no supported")

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from warp_st.core.native_output import held_diagnostics
 from warp_st.core.scene import SceneError
+from warp_st.usd.camera import NOTHING_TO_RENDER
 
 
 @contextlib.contextmanager
@@ -129,7 +130,10 @@ def load(scene_path: Path, no_references: bool, max_memory: int | None = None):
     budget = max(filter(None, (max_memory, default_max_memory())), default=None)
     with held_diagnostics(), _address_space_cap(budget):
         try:
-            return warp_st.load(str(scene_path), no_references=no_references)
+            scene = warp_st.load(str(scene_path), no_references=no_references)
         except MemoryError:
             raise SceneError(f"{scene_path}: reading it needs more memory than the limit "
                              "(--max-memory); the file may be corrupt") from None
+        if any(d.code == "NothingToRender" for d in scene.diagnostics):  # one error line, not a warning too
+            raise SceneError(f"{scene_path}: {NOTHING_TO_RENDER}")
+    return scene

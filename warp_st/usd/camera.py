@@ -27,6 +27,11 @@ FRAMING_VERTICAL_APERTURE = 15.2908
 FLAT_FRACTION = 0.01
 
 
+#: The one error line of a stage with no camera and nothing for the default camera to frame.
+NOTHING_TO_RENDER = ("nothing to render: the stage has no camera and no supported visible geometry for the "
+                     "default camera to frame")
+
+
 @dataclass(frozen=True)
 class Framing:
     """The default camera: at rest in the lab, its time the rendered time code."""
@@ -138,8 +143,7 @@ class CameraEvaluator:
             raise SceneError.at(w.file, str(path), None, f"frame must be finite and within +-{MAX_MAGNITUDE:g}, got {frame}")
         if path == DEFAULT_CAMERA:
             if self.framing is None:
-                raise SceneError.at(w.file, None, None, "nothing to render: the stage has no camera and no "
-                                                        "supported visible geometry for the default camera to frame")
+                raise SceneError.at(w.file, None, None, NOTHING_TO_RENDER)
             return self.framing.state(frame)
         prim = self.stage().GetPrimAtPath(str(path))
         if not prim or not prim.IsA(UsdGeom.Camera):
