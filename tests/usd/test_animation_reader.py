@@ -73,8 +73,12 @@ def test_coupled_body_at_light_speed_is_exit_2(tmp_path, capsys):
 def test_decoupled_or_schema_less_body_at_light_speed_renders(tmp_path):
     decoupled = warp_st.load(write(tmp_path, "d.usda", _body(FAST, "custom bool spacetime:lorentzDecoupled = true")))
     assert decoupled.bodies[0].decoupled and not decoupled.diagnostics
+    # a plain stage has the physical speed of light (docs/spec.md §1.1): 1.2 units per time
+    # code is far below it; at one unit per time code it is 1.2 c
+    physical = warp_st.load(write(tmp_path, "p.usda", _body(FAST, api=False)))
+    assert not physical.bodies[0].decoupled and physical.bodies[0].motion is not None
     with pytest.warns(UserWarning, match="moves at 1.2 c between time codes 10 and 20.*rendered Lorentz-decoupled"):
-        plain = warp_st.load(write(tmp_path, "p.usda", _body(FAST, api=False)))
+        plain = warp_st.load(tmp_path / "p.usda", light_speed="1units/timecode")
     assert plain.bodies[0].decoupled and plain.bodies[0].motion is not None
 
 
@@ -144,7 +148,8 @@ def Cube "C"
 {
 }
 '''
-    scene = warp_st.load(write(tmp_path, "cam.usda", text))
+    assert np.linalg.norm(warp_st.load(write(tmp_path, "cam.usda", text)).camera_state(None, 3.0).velocity) < 1e-8
+    scene = warp_st.load(tmp_path / "cam.usda", light_speed="1u/tc")  # (the physical default: 2e-9 c)
     with pytest.raises(SceneError, match=r"/Cam: xformOpOrder: the animated camera moves at 2 c at time code 3"):
         scene.camera_state(None, 3.0)
     assert np.allclose(scene.camera_state(None, 10.0).velocity, 0.0)  # held after the last sample

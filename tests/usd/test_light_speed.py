@@ -124,3 +124,32 @@ def test_header_records_the_light_speed(tmp_path, capsys):
     header = warp_st.read_exr(out).metadata
     assert header["lightSpeedUnitsPerTimeCode"] == "7.0"
     assert header["lightSpeedOrigin"].startswith("--light-speed 7 units/timecode")
+
+
+def test_authored_times_become_lab_times(tmp_path):
+    """referenceTime, lifetime and animation samples are time codes: x c_s in the scene
+    (fourVelocity is dimensionless and stays)."""
+    path = tmp_path / "b.usda"
+    path.write_text('''#usda 1.0
+def Xform "Ship" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{
+    double4 spacetime:fourVelocity = (1, 0.5, 0, 0)
+    double spacetime:referenceTime = 3
+    double2 spacetime:lifetime = (-1, 4)
+    double3 xformOp:translate.timeSamples = { 0: (0, 0, 0), 10: (0, 1, 0) }
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    def Cube "Hull"
+    {
+    }
+}
+''')
+    one, two = warp_st.load(path), warp_st.load(path, light_speed="2u/tc")
+    assert one.light_speed == 1.0 and two.light_speed == 2.0
+    assert (one.bodies[0].reference_time, one.bodies[0].lifetime) == (3.0, (-1.0, 4.0))
+    assert (two.bodies[0].reference_time, two.bodies[0].lifetime) == (6.0, (-2.0, 8.0))
+    np.testing.assert_array_equal(two.bodies[0].motion.times, 2.0 * one.bodies[0].motion.times)
+    np.testing.assert_array_equal(two.bodies[0].velocity, [0.5, 0.0, 0.0])
+    # the pivot: USD's translate at the time code plus 0.5 c over the lab time since t_ref
+    m = two.bodies[0].motion
+    np.testing.assert_allclose(m.pivot[:, 0], 0.5 * (m.times - 6.0), atol=1e-12)
+    np.testing.assert_allclose(m.pivot[:, 1], m.times / 20.0, atol=1e-12)

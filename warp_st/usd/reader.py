@@ -38,21 +38,13 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdSkel
 
 from warp_st.core.conventions import DEFAULT_RESOLUTION, Precision
-from warp_st.core.light_speed import (
-    METRES_PER_SECOND,
-    PHYSICAL_LIGHT_SPEED,
-    UNITS_PER_TIME_CODE,
-    LightSpeedSetting,
-    parse_light_speed,
-    physical_units_per_time_code,
-)
+from warp_st.core.light_speed import LightSpeedSetting, parse_light_speed
 from warp_st.core.limits import MAX_BOUNCES, MAX_PIXELS, MAX_SAMPLES
 from warp_st.core.scene import DEFAULT_CAMERA, Body, Light, RenderSettings, Scene, SceneError, Surface
 from warp_st.usd import attributes as A
 from warp_st.usd.animation import animated_op, sample_motion, xform_sample_times
 from warp_st.usd.attributes import (
     SPACETIME_BODY_API,
-    SPACETIME_CAMERA_API,
     Where,
     body_kinematics,
     has_api,
@@ -62,6 +54,7 @@ from warp_st.usd.camera import CameraEvaluator, frame_bounds
 from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
 from warp_st.usd.dome import read_dome
 from warp_st.usd.geometry import GprimReader, is_hidden, world_transform
+from warp_st.usd.light_speed import SCHEMA_LIGHT_SPEED, settings_and_schema_use, stage_light_speed
 from warp_st.usd.lights import SUPPORTED, read_light
 from warp_st.usd.products import read_products
 from warp_st.usd.stage import open_stage, tf_message
@@ -69,10 +62,6 @@ from warp_st.usd.stage import open_stage, tf_message
 __all__ = ["load_scene", "read_stage", "open_stage", "CameraEvaluator", "body_kinematics"]
 
 _PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
-SPACETIME_APIS = (SPACETIME_BODY_API, SPACETIME_CAMERA_API)
-#: The render settings' light speed (docs/spec.md §3.1): metres per second, or stage units per time code.
-SCHEMA_LIGHT_SPEED = "the stage applies the spacetime schemas: 1 stage unit per time code"
-SETTINGS_LIGHT_SPEED = ("spacetime:lightSpeedMetersPerSecond", "spacetime:lightSpeedUnitsPerTimeCode")
 
 
 # -- bodies ---------------------------------------------------------------------------
@@ -321,40 +310,11 @@ class _StageReader:
 
     # -- render settings ------------------------------------------------------------
     def _light_speed(self, requested: LightSpeedSetting | None) -> tuple[float, str]:
-        """The stage's light speed in stage units per time code, and where it comes from
-        (docs/spec.md §3.1): ``requested`` (--light-speed), else the render settings'
-        ``spacetime:lightSpeedMetersPerSecond`` / ``spacetime:lightSpeedUnitsPerTimeCode``,
-        else 1 when the stage applies our schemas (or authors spacetime: attributes on a
-        camera or the render settings), else the physical speed of light."""
-        stage = self.stage
-        mpu, tcps = float(UsdGeom.GetStageMetersPerUnit(stage)), float(stage.GetTimeCodesPerSecond())
-        units = f"at metersPerUnit {mpu:g} and {tcps:g} time codes per second"
+        """The stage's light speed and where it comes from (``warp_st.usd.light_speed``)."""
         if requested is not None:
-            return requested.units_per_time_code(mpu, tcps), f"--light-speed {requested} ({units})"
-        ours, settings = False, []
-        for prim in Usd.PrimRange(stage.GetPseudoRoot(), _PREDICATE):
-            if prim.IsA(UsdRender.Settings):
-                settings.append(prim)
-            if not ours and (any(a in SPACETIME_APIS for a in prim.GetAppliedSchemas())
-                             or (prim.IsA(UsdGeom.Camera) or prim.IsA(UsdRender.Settings))
-                             and any(n.startswith("spacetime:") for n in prim.GetAuthoredPropertyNames())):
-                ours = True
-        self.settings_prims = settings
-        prim = self._settings_prim()
-        if prim is not None:
-            w = self.where
-            given = [(name, A.real(w, prim, name, None, positive=True)) for name in SETTINGS_LIGHT_SPEED]
-            given = [(name, value) for name, value in given if value is not None]
-            if len(given) > 1:
-                raise w.error(prim, given[1][0], f"conflicts with {given[0][0]}: author one light speed")
-            if given:
-                name, value = given[0]
-                unit = METRES_PER_SECOND if name == SETTINGS_LIGHT_SPEED[0] else UNITS_PER_TIME_CODE
-                setting = LightSpeedSetting(value, unit)
-                return setting.units_per_time_code(mpu, tcps), f"{prim.GetPath()}.{name} = {setting} ({units})"
-        if ours:
-            return 1.0, SCHEMA_LIGHT_SPEED
-        return physical_units_per_time_code(mpu, tcps), f"the physical speed of light, {PHYSICAL_LIGHT_SPEED:.9g} m/s {units}"
+            return stage_light_speed(self.stage, self.where, self.notes, requested, None, False)
+        self.settings_prims, ours = settings_and_schema_use(self.stage)
+        return stage_light_speed(self.stage, self.where, self.notes, None, self._settings_prim(), ours)
 
     def _settings_prim(self):
         """The stage's renderSettingsPrimPath, else the first RenderSettings prim, else None."""
