@@ -118,9 +118,9 @@ class MaterialReader:
                 return self._materialx(material, mtlx)
             others = [o.GetFullName() for o in material.GetSurfaceOutputs() if o.GetFullName() != "outputs:surface"]
             if others:
-                self.notes.warn(material.GetPrim(), others[0], "only a UsdPreviewSurface on outputs:surface is "
-                                f"supported (not this render context's shading, e.g. MaterialX); {instead}",
-                                "UnsupportedShader")
+                self.notes.warn(material.GetPrim(), others[0], "only a UsdPreviewSurface on outputs:surface or a "
+                                f"MaterialX surface on outputs:mtlx:surface is supported (not this render context's "
+                                f"shading); {instead}", "UnsupportedShader")
             else:
                 self.notes.warn(material.GetPrim(), "outputs:surface", f"has no surface shader; {instead}",
                                 "UnsupportedShader")
