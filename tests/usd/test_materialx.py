@@ -11,6 +11,7 @@ Laws (docs/spec.md §2, "MaterialX networks"):
   interface) is the texture: texel x base, raw or sRGB by the file's colorSpace, st from
   ND_texcoord_vector2 (the primvar st) or ND_geompropvalue_vector2 (its geomprop), the
   image's default outside [0, 1) under the ``constant`` address mode.
+- MaterialX's ND_UsdPreviewSurface_surfaceshader is read as a UsdPreviewSurface;
 - a UsdPreviewSurface on the universal output wins over the mtlx network;
 - an unhonoured input authored off its default is one warning, at its default none;
 - an unsupported node or surface: one warning line naming prim and attribute, displayColor.
@@ -119,6 +120,8 @@ def test_constant_standard_surface_and_open_pbr(tmp_path):
         "PbrGlow": mx("PbrGlow", pbr, "float inputs:base_weight = 0\n            float inputs:emission_luminance = 3\n"
                                       "            color3f inputs:emission_color = (0.1, 0.2, 0.3)"),
         "PbrMetal": mx("PbrMetal", pbr, "float inputs:base_metalness = 1"),  # base_color 0.8 by default
+        # MaterialX's UsdPreviewSurface node, read as a UsdPreviewSurface
+        "MxPreview": mx("MxPreview", "ND_UsdPreviewSurface_surfaceshader", "color3f inputs:diffuseColor = (0.1, 0.2, 0.4)"),
         # both contexts: the universal UsdPreviewSurface is read (red), not the network (green)
         "Both": mx("Both", std, "color3f inputs:base_color = (0, 1, 0)", universal=(
             'token outputs:surface.connect = </Looks/Both/P.outputs:surface>\n        def Shader "P"\n        {\n'
@@ -138,6 +141,7 @@ def test_constant_standard_surface_and_open_pbr(tmp_path):
         "Pbr": f32(0.5) * np.array([0.5, 0.25, 1], f32),
         "PbrGlow": f32(3) * np.array([0.1, 0.2, 0.3], f32),
         "PbrMetal": f32(0.8) * np.array(BACKGROUND, f32),
+        "MxPreview": np.array([0.1, 0.2, 0.4], f32),
         "Both": np.array([1, 0, 0]),
     }
     for name, rgb in expected.items():
@@ -176,12 +180,24 @@ def test_image_base_color_through_a_node_graph(tmp_path):
     """A 2 x 1 image: left texel (51, 102, 153), right (255, 204, 0). The quads' st runs
     over s in [0, 2): the first half shows the two texels, the second half repeats them
     (periodic) or shows the image's default (constant). Their uv runs backwards (2 - s):
-    the quad reading uv shows the texels in the other order."""
+    the quad reading uv shows the texels in the other order. An ND_image_float (0, then 1)
+    on metalness: diffuse, then a mirror."""
     write_image(tmp_path / "grid.png", np.array([[[51, 102, 153], [255, 204, 0]]], dtype=np.uint8), oiio.UINT8)
     uv0 = 'uniform token info:id = "ND_texcoord_vector2"'
     uv = 'uniform token info:id = "ND_geompropvalue_vector2"\n                string inputs:geomprop = "uv"'
+    write_image(tmp_path / "mask.png", np.array([[[0], [255]]], dtype=np.uint8), oiio.UINT8)
+    mask = '''def Shader "Mask"
+        {
+            uniform token info:id = "ND_image_float"
+            asset inputs:file = @mask.png@ (
+                colorSpace = "raw"
+            )
+            float outputs:out
+        }'''
     looks = {"Raw": image_material("Raw", uv0, "lin_rec709"), "Srgb": image_material("Srgb", uv, "srgb_texture"),
-             "Edge": image_material("Edge", uv0, "lin_rec709", address="constant")}
+             "Edge": image_material("Edge", uv0, "lin_rec709", address="constant"),
+             "Mask": mx("Mask", "ND_standard_surface_surfaceshader", "color3f inputs:base_color = (0.5, 0.5, 0.5)\n"
+                        "            float inputs:metalness.connect = </Looks/Mask/Mask.outputs:out>", mask)}
     scene, region, spans = render(tmp_path, looks, st="(0, 0), (2, 0), (2, 1), (0, 1)",
                                   uv="(2, 0), (0, 0), (0, 1), (2, 1)")
     assert warnings_of(scene) == []
@@ -196,6 +212,10 @@ def test_image_base_color_through_a_node_graph(tmp_path):
             if name == "Edge" and k >= 2:
                 texel = np.array([0.1, 0.2, 0.3], np.float32)  # outside [0, 1): the default
             assert np.abs(region(lo, hi) - 0.5 * texel).max() < TOL, (name, k)
+        # metalness from the mask (texel 0, then 1): the diffuse 0.5, then a mirror of the background
+        lo, hi = spans["Mask"][0] + 0.5 * k + 0.1, spans["Mask"][0] + 0.5 * (k + 1) - 0.1
+        shown = np.float32(0.5) * (np.array(BACKGROUND) if k % 2 else 1.0)  # base 1 (1.39) x base_color 0.5
+        assert np.abs(region(lo, hi) - shown).max() < TOL, ("Mask", k)
 
 
 def test_unsupported_nodes_warn_and_fall_back_to_display_color(tmp_path):

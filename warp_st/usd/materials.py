@@ -14,7 +14,8 @@ Everything else a bound material says is a warning naming the prim and the attri
 driven by other shaders, the other UsdPreviewSurface inputs when they differ from the
 shader's defaults, per-vertex display colours. A value of the wrong type is a warning
 too, and the default is used. A material without a universal surface but with a MaterialX
-one (``outputs:mtlx:surface``: Standard Surface, OpenPBR) is read by ``warp_st.usd.materialx``.
+one (``outputs:mtlx:surface``: Standard Surface, OpenPBR) is read by ``warp_st.usd.materialx``,
+MaterialX's ``ND_UsdPreviewSurface_surfaceshader`` there as a UsdPreviewSurface.
 """
 from __future__ import annotations
 
@@ -36,6 +37,8 @@ __all__ = ["MaterialReader", "preview_defaults"]
 #: The render context of inline MaterialX networks (``warp_st.usd.materialx``), read
 #: when a material has no universal surface.
 MTLX = "mtlx"
+#: MaterialX's own UsdPreviewSurface node (the inputs and defaults of UsdPreviewSurface).
+MTLX_PREVIEW = "ND_UsdPreviewSurface_surfaceshader"
 
 #: UsdPreviewSurface inputs the renderer uses.
 HONOURED_INPUTS = ("diffuseColor", "emissiveColor", "metallic")
@@ -114,8 +117,11 @@ class MaterialReader:
         instead = "displayColor is used"
         if not shader:
             mtlx = material.ComputeSurfaceSource(MTLX)[0]  # no universal surface here: the mtlx one only
-            if mtlx:
+            if mtlx and mtlx.GetShaderId() == MTLX_PREVIEW:
+                shader = mtlx  # MaterialX's UsdPreviewSurface: the same inputs, read as one
+            elif mtlx:
                 return self._materialx(material, mtlx)
+        if not shader:
             others = [o.GetFullName() for o in material.GetSurfaceOutputs() if o.GetFullName() != "outputs:surface"]
             if others:
                 self.notes.warn(material.GetPrim(), others[0], "only a UsdPreviewSurface on outputs:surface or a "
@@ -126,7 +132,7 @@ class MaterialReader:
                                 "UnsupportedShader")
             return None
         shader_id = shader.GetShaderId()
-        if shader_id != "UsdPreviewSurface":
+        if shader_id not in ("UsdPreviewSurface", MTLX_PREVIEW):
             self.notes.warn(material.GetPrim(), "outputs:surface",
                             f"its shader {shader.GetPath()} is {str(shader_id or 'not identified')!r}, not "
                             f"UsdPreviewSurface, which is the only one supported; {instead}", "UnsupportedShader")
