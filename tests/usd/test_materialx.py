@@ -235,6 +235,17 @@ def test_unsupported_nodes_warn_and_fall_back_to_display_color(tmp_path):
         "Noisy": mx("Noisy", "ND_standard_surface_surfaceshader",
                     "color3f inputs:base_color.connect = </Looks/Noisy/Noise.outputs:out>", noise),
         "Gltf": mx("Gltf", "ND_gltf_pbr_surfaceshader", "color3f inputs:base_color = (1, 0, 0)"),
+        # a weight from an image (weights are constants), a colour from a missing file: only
+        # the weight's line (nothing is read from a material that falls back)
+        "WeightMap": mx("WeightMap", "ND_standard_surface_surfaceshader",
+                        "float inputs:base.connect = </Looks/WeightMap/Mask.outputs:out>\n            color3f "
+                        "inputs:base_color.connect = </Looks/WeightMap/Image.outputs:out>", missing + '''
+        def Shader "Mask"
+        {
+            uniform token info:id = "ND_image_float"
+            asset inputs:file = @nothere.png@
+            float outputs:out
+        }'''),
         "Missing": mx("Missing", "ND_standard_surface_surfaceshader",
                       "float inputs:base = 1\n            color3f inputs:base_color.connect = "
                       "</Looks/Missing/Image.outputs:out>", missing),
@@ -248,7 +259,10 @@ def test_unsupported_nodes_warn_and_fall_back_to_display_color(tmp_path):
          "0.125) is used"),
         ("/Looks/Noisy/S", "inputs:base_color", "is connected to /Looks/Noisy/Noise (ND_noise2d_color3), which is "
          "not evaluated (it can be an ND_image_color3 node); displayColor is used"),
+        ("/Looks/WeightMap/S", "inputs:base", "is connected to /Looks/WeightMap/Mask (ND_image_float), which is not "
+         "evaluated (it can be a constant); displayColor is used"),
     ]
-    for name, rgb in (("Noisy", (0.5, 0.75, 0.25)), ("Gltf", (0.5, 0.75, 0.25)), ("Missing", (0.5, 0.25, 0.125))):
+    for name, rgb in (("Noisy", (0.5, 0.75, 0.25)), ("Gltf", (0.5, 0.75, 0.25)), ("WeightMap", (0.5, 0.75, 0.25)),
+                      ("Missing", (0.5, 0.25, 0.125))):
         assert np.abs(region(*inner(spans[name])) - rgb).max() < TOL, name
     assert {s.material.prim_path for b in scene.bodies for s in b.surfaces} >= {"/Looks/Noisy", "/Looks/Gltf"}

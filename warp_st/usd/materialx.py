@@ -36,7 +36,7 @@ from warp_st.usd.diagnostics import Notes, same_value
 from warp_st.usd.images import ImageError
 from warp_st.usd.textures import TextureReader, one_st, rgba
 
-__all__ = ["MaterialXReader", "MODELS", "Unusable"]
+__all__ = ["MaterialXReader", "ImageReader", "MODELS"]
 
 _WHITE = (1.0, 1.0, 1.0)
 _BLACK = (0.0, 0.0, 0.0)
@@ -111,11 +111,6 @@ _SPACES = {"srgb_texture": "sRGB", "lin_rec709": "raw", "raw": "raw"}
 _IMAGES = {3: "ND_image_color3", 1: "ND_image_float"}
 
 
-class Unusable(Exception):
-    """An honoured input the network drives with something that cannot be evaluated
-    (already warned about): the material falls back to displayColor."""
-
-
 class MaterialXReader:
     """``reader(material, shader) -> Material | None`` for a Material whose ``mtlx``
     surface is ``shader`` (None: warned, displayColor is used)."""
@@ -134,12 +129,11 @@ class MaterialXReader:
                             f"{', '.join(MODELS)}, which are the MaterialX surfaces supported; displayColor is used",
                             "UnsupportedShader")
             return None
-        try:
-            diffuse, diffuse_tex = self._product(shader, model, *model.diffuse)
-            emissive, emissive_tex = self._product(shader, model, *model.emission)
-            metallic, metallic_tex = self._input(shader, model, model.metallic, 1)
-        except Unusable:
+        if self._unevaluated(shader, model):
             return None
+        diffuse, diffuse_tex = self._product(shader, model, *model.diffuse)
+        emissive, emissive_tex = self._product(shader, model, *model.emission)
+        metallic, metallic_tex = self._input(shader, model, model.metallic, 1)
         textures = [t for t in (diffuse_tex, emissive_tex, metallic_tex) if t is not None]
         one_st(self.notes, shader.GetPrim(), textures)
         self._other_inputs(shader, model)
@@ -148,20 +142,42 @@ class MaterialXReader:
                         emissive_texture=emissive_tex, metallic_texture=metallic_tex,
                         prim_path=str(material.GetPath()))
 
+    def _unevaluated(self, shader, model: Model) -> bool:
+        """Whether an honoured input is driven by a node that is not evaluated (one warning
+        for the first): the weights must be constants, the rest may be an image node."""
+        weights = {model.diffuse[0], model.emission[0]}
+        for name, size in ((model.diffuse[0], 1), (model.diffuse[1], 3), (model.emission[0], 1),
+                           (model.emission[1], 3), (model.metallic, 1)):
+            inp = shader.GetInput(name)
+            producers = inp.GetValueProducingAttributes() if inp else []
+            if not (producers and UsdShade.Output.IsOutput(producers[0])):
+                continue
+            node = UsdShade.Shader(producers[0].GetPrim())
+            node_id = str(node.GetShaderId() or "") if node else ""
+            if name not in weights and node_id == _IMAGES[size]:
+                continue
+            what = "a constant" if name in weights else f"an {_IMAGES[size]} node"
+            self.notes.warn(shader.GetPrim(), inp.GetFullName(),
+                            f"is connected to {producers[0].GetPrim().GetPath()} ({node_id or 'no shader id'}), "
+                            f"which is not evaluated (it can be {what}); displayColor is used", "NotHonoured")
+            return True
+        return False
+
     def _product(self, shader, model: Model, weight_name: str, colour_name: str):
         """(weight x colour, the colour's Texture scaled by the weight, or None)."""
-        weight, _ = self._input(shader, model, weight_name, 1, images=False)
+        weight, _ = self._input(shader, model, weight_name, 1)
         colour, texture = self._input(shader, model, colour_name, 3)
         w = weight[0]
-        if texture is not None:
+        if texture is not None and w != 1.0:  # (at 1 the texels stay shared with other users)
             texels = texture.texels.copy()
             texels[..., :3] *= np.float32(w)
             border = tuple(float(b) * w for b in texture.border[:3]) + (float(texture.border[3]),)
             texture = dataclasses.replace(texture, texels=texels, border=border)
         return [w * c for c in colour], texture
 
-    def _input(self, shader, model: Model, name: str, size: int, images: bool = True):
-        """(the input's value (size floats), its Texture or None); raises Unusable."""
+    def _input(self, shader, model: Model, name: str, size: int):
+        """(the input's value (size floats), its Texture or None); a connected input is an
+        image node (``_unevaluated`` checked)."""
         default = model.defaults[name]
         fallback = (float(default),) if size == 1 else tuple(float(x) for x in default)
         inp = shader.GetInput(name)
@@ -169,15 +185,7 @@ class MaterialXReader:
             return list(fallback), None
         producers = inp.GetValueProducingAttributes()
         if producers and UsdShade.Output.IsOutput(producers[0]):
-            node = UsdShade.Shader(producers[0].GetPrim())
-            node_id = str(node.GetShaderId() or "") if node else ""
-            if images and node_id == _IMAGES[size]:
-                return self.images(node, producers[0], size)
-            what = f"an {_IMAGES[size]} node" if images else "a constant"
-            self.notes.warn(shader.GetPrim(), inp.GetFullName(),
-                            f"is connected to {producers[0].GetPrim().GetPath()} ({node_id or 'no shader id'}), "
-                            f"which is not evaluated (it can be {what}); displayColor is used", "NotHonoured")
-            raise Unusable(name)
+            return self.images(UsdShade.Shader(producers[0].GetPrim()), producers[0], size)
         attr = producers[0] if producers else inp.GetAttr()
         return _constant(self.where, self.notes, attr, size, fallback, "the MaterialX default"), None
 
@@ -208,8 +216,15 @@ class ImageReader:
         self.where = where
         self.notes = notes
         self.textures = textures
+        self._read: dict[tuple[str, str, int], tuple] = {}
 
     def __call__(self, node, output, size: int):
+        key = (str(node.GetPath()), output.GetBaseName(), size)
+        if key not in self._read:  # one Texture per node: materials sharing it share its texels
+            self._read[key] = self._image(node, output, size)
+        return self._read[key]
+
+    def _image(self, node, output, size: int):
         prim = node.GetPrim()
         default = _constant(self.where, self.notes, _attr(node, "default"), size, (0.0,) * size, "the default")
         constant = (default, None)
