@@ -176,12 +176,27 @@ def image_material(name: str, texcoord: str, colour_space: str, address: str = "
     return mx(name, "ND_standard_surface_surfaceshader", inputs, graph)
 
 
+def tiled_material(name: str, tiling: str) -> str:
+    """Standard Surface, base_color from an ND_tiledimage_color3 (raw) with ``tiling``."""
+    image = f'''def Shader "Tiled"
+        {{
+            uniform token info:id = "ND_tiledimage_color3"
+            asset inputs:file = @grid.png@ (
+                colorSpace = "raw"
+            )
+            {tiling}
+            color3f outputs:out
+        }}'''
+    return mx(name, "ND_standard_surface_surfaceshader",
+              f"color3f inputs:base_color.connect = </Looks/{name}/Tiled.outputs:out>", image)
+
+
 def test_image_base_color_through_a_node_graph(tmp_path):
     """A 2 x 1 image: left texel (51, 102, 153), right (255, 204, 0). The quads' st runs
     over s in [0, 2): the first half shows the two texels, the second half repeats them
     (periodic) or shows the image's default (constant). Their uv runs backwards (2 - s):
     the quad reading uv shows the texels in the other order. An ND_image_float (0, then 1)
-    on metalness: diffuse, then a mirror."""
+    on metalness: diffuse, then a mirror. ND_tiledimage_color3 maps st by its tiling."""
     write_image(tmp_path / "grid.png", np.array([[[51, 102, 153], [255, 204, 0]]], dtype=np.uint8), oiio.UINT8)
     uv0 = 'uniform token info:id = "ND_texcoord_vector2"'
     uv = 'uniform token info:id = "ND_geompropvalue_vector2"\n                string inputs:geomprop = "uv"'
@@ -197,7 +212,10 @@ def test_image_base_color_through_a_node_graph(tmp_path):
     looks = {"Raw": image_material("Raw", uv0, "lin_rec709"), "Srgb": image_material("Srgb", uv, "srgb_texture"),
              "Edge": image_material("Edge", uv0, "lin_rec709", address="constant"),
              "Mask": mx("Mask", "ND_standard_surface_surfaceshader", "color3f inputs:base_color = (0.5, 0.5, 0.5)\n"
-                        "            float inputs:metalness.connect = </Looks/Mask/Mask.outputs:out>", mask)}
+                        "            float inputs:metalness.connect = </Looks/Mask/Mask.outputs:out>", mask),
+             "Tiled": tiled_material("Tiled", "float2 inputs:uvtiling = (0.5, 1)\n            "
+                                     "float2 inputs:uvoffset = (0.25, 0)"),
+             "World": tiled_material("World", "float2 inputs:realworldimagesize = (2, 1)")}
     scene, region, spans = render(tmp_path, looks, st="(0, 0), (2, 0), (2, 1), (0, 1)",
                                   uv="(2, 0), (0, 0), (0, 1), (2, 1)")
     assert warnings_of(scene) == []
@@ -212,6 +230,12 @@ def test_image_base_color_through_a_node_graph(tmp_path):
             if name == "Edge" and k >= 2:
                 texel = np.array([0.1, 0.2, 0.3], np.float32)  # outside [0, 1): the default
             assert np.abs(region(lo, hi) - 0.5 * texel).max() < TOL, (name, k)
+        # ND_tiledimage: s' = (s uvtiling - uvoffset) / realworldimagesize x realworldtilesize
+        # (periodic): Tiled s' = s / 2 - 1 / 4, in quarter k [k/4 - 1/4, (k+1)/4 - 1/4): texels 1, 0, 0, 1;
+        # World s' = s / 2: texels 0, 0, 1, 1 (base 1: the texels themselves)
+        for name, order in (("Tiled", (1, 0, 0, 1)), ("World", (0, 0, 1, 1))):
+            lo, hi = spans[name][0] + 0.5 * k + 0.1, spans[name][0] + 0.5 * (k + 1) - 0.1
+            assert np.abs(region(lo, hi) - stored[order[k]]).max() < TOL, (name, k)
         # metalness from the mask (texel 0, then 1): the diffuse 0.5, then a mirror of the background
         lo, hi = spans["Mask"][0] + 0.5 * k + 0.1, spans["Mask"][0] + 0.5 * (k + 1) - 0.1
         shown = np.float32(0.5) * (np.array(BACKGROUND) if k % 2 else 1.0)  # base 1 (1.39) x base_color 0.5
@@ -258,7 +282,7 @@ def test_unsupported_nodes_warn_and_fall_back_to_display_color(tmp_path):
         ("/Looks/Missing/Image", "inputs:file", "nothere.png cannot be found; the image's default (0.5, 0.25, "
          "0.125) is used"),
         ("/Looks/Noisy/S", "inputs:base_color", "is connected to /Looks/Noisy/Noise (ND_noise2d_color3), which is "
-         "not evaluated (it can be an ND_image_color3 node); displayColor is used"),
+         "not evaluated (it can be an ND_image_color3 or ND_tiledimage_color3 node); displayColor is used"),
         ("/Looks/WeightMap/S", "inputs:base", "is connected to /Looks/WeightMap/Mask (ND_image_float), which is not "
          "evaluated (it can be a constant); displayColor is used"),
     ]

@@ -107,8 +107,13 @@ IMAGE_DEFAULTS = {"file": None, "layer": "", "default": None, "texcoord": None, 
 _ADDRESS = {"periodic": "repeat", "clamp": "clamp", "mirror": "mirror", "constant": "black"}
 #: MaterialX colour-space names (the file input's colorSpace) -> images.py's.
 _SPACES = {"srgb_texture": "sRGB", "lin_rec709": "raw", "raw": "raw"}
+_ADDRESS_INPUTS = ("uaddressmode", "vaddressmode")
+_TILING = ("uvtiling", "uvoffset", "realworldimagesize", "realworldtilesize")
+#: ND_tiledimage's inputs: the image's, without address modes (always periodic), with tiling.
+TILED_DEFAULTS = {**{k: v for k, v in IMAGE_DEFAULTS.items() if k not in _ADDRESS_INPUTS},
+                  **dict(zip(_TILING, ((1.0, 1.0), (0.0, 0.0), (1.0, 1.0), (1.0, 1.0))))}
 #: Image nodes by the size of the value they feed (3: a colour, 1: a float).
-_IMAGES = {3: "ND_image_color3", 1: "ND_image_float"}
+_IMAGES = {3: ("ND_image_color3", "ND_tiledimage_color3"), 1: ("ND_image_float", "ND_tiledimage_float")}
 
 
 class MaterialXReader:
@@ -154,9 +159,9 @@ class MaterialXReader:
                 continue
             node = UsdShade.Shader(producers[0].GetPrim())
             node_id = str(node.GetShaderId() or "") if node else ""
-            if name not in weights and node_id == _IMAGES[size]:
+            if name not in weights and node_id in _IMAGES[size]:
                 continue
-            what = "a constant" if name in weights else f"an {_IMAGES[size]} node"
+            what = "a constant" if name in weights else f"an {' or '.join(_IMAGES[size])} node"
             self.notes.warn(shader.GetPrim(), inp.GetFullName(),
                             f"is connected to {producers[0].GetPrim().GetPath()} ({node_id or 'no shader id'}), "
                             f"which is not evaluated (it can be {what}); displayColor is used", "NotHonoured")
@@ -203,7 +208,8 @@ class MaterialXReader:
 
 class ImageReader:
     """``reader(node, output, size) -> (values, Texture | None)`` for an ``ND_image_color3``
-    (size 3) or ``ND_image_float`` (size 1) node, as the Texture of a UsdUVTexture: its
+    (size 3) or ``ND_image_float`` (size 1) node, or their ``ND_tiledimage_*`` (periodic,
+    st mapped by :meth:`_tiling`), as the Texture of a UsdUVTexture: its
     ``file`` through OpenImageIO (``TextureReader.image``, in the colour space of the
     file input's ``colorSpace``: ``srgb_texture`` sRGB, ``lin_rec709`` / ``raw`` raw, none
     ``auto``), ``uaddressmode`` / ``vaddressmode`` (``constant``: the ``default`` outside
@@ -246,19 +252,43 @@ class ImageReader:
             self.notes.warn(prim, "inputs:file", f"{shown} cannot be read ({exc}); the image's default "
                             f"{tuple(default)} is used", "MissingTexture")
             return constant
-        def address(where, prim, name, default):
-            return A.token(where, prim, name, tuple(_ADDRESS), default)
-        wraps = tuple(_ADDRESS[self._checked(node, axis, "periodic", address)] for axis in ("uaddressmode", "vaddressmode"))
+        tiled = "tiledimage" in str(node.GetShaderId())
+        if tiled:
+            wraps, transform, defaults = ("repeat", "repeat"), self._tiling(node), TILED_DEFAULTS
+        else:
+            def address(where, prim, name, default):
+                return A.token(where, prim, name, tuple(_ADDRESS), default)
+            wraps = tuple(_ADDRESS[self._checked(node, axis, "periodic", address)] for axis in _ADDRESS_INPUTS)
+            transform, defaults = None, IMAGE_DEFAULTS
         primvar, st_fallback = self._texcoord(node)
+        used = ("file", "default", "texcoord", "filtertype", *(_TILING if tiled else _ADDRESS_INPUTS))
         for inp in node.GetInputs():
             name = inp.GetBaseName()
-            if name not in ("file", "default", "texcoord", "uaddressmode", "vaddressmode", "filtertype"):
-                why = "not honoured" if name in IMAGE_DEFAULTS else f"not an input of {node.GetShaderId()} warp_st knows"
-                _unused(self.where, self.notes, node, inp, IMAGE_DEFAULTS.get(name), why)
+            if name not in used:
+                why = "not honoured" if name in defaults else f"not an input of {node.GetShaderId()} warp_st knows"
+                _unused(self.where, self.notes, node, inp, defaults.get(name), why)
         border = (*default, 1.0) if size == 3 else (default[0],) * 3 + (1.0,)
         texture = Texture(file=path, texels=rgba(image.texels), wrap=wraps, border=border,
-                          channel=-1 if size == 3 else 0, primvar=primvar, st_fallback=st_fallback)
+                          channel=-1 if size == 3 else 0, primvar=primvar, st_fallback=st_fallback,
+                          st_transform=transform)
         return list(default), texture
+
+    def _tiling(self, node) -> np.ndarray | None:
+        """The 2 x 3 affine st map of an ND_tiledimage (MaterialX's graph of the node):
+        st' = (st x uvtiling - uvoffset) / realworldimagesize x realworldtilesize; None for
+        the identity."""
+        v = {name: np.array(_constant(self.where, self.notes, _attr(node, name), 2, TILED_DEFAULTS[name],
+                                      "the default"), dtype=np.float64)
+             for name in _TILING}
+        if not (v["realworldimagesize"] > 0).all():
+            self.notes.warn(node.GetPrim(), "inputs:realworldimagesize", f"must be > 0, got "
+                            f"{tuple(v['realworldimagesize'].tolist())}; (1, 1) is used", "BadValue")
+            v["realworldimagesize"] = np.ones(2)
+        ratio = v["realworldtilesize"] / v["realworldimagesize"]
+        scale, offset = v["uvtiling"] * ratio, -v["uvoffset"] * ratio
+        if (scale == 1.0).all() and (offset == 0.0).all():
+            return None
+        return np.array([[scale[0], 0.0, offset[0]], [0.0, scale[1], offset[1]]])
 
     def _space(self, node, file_attr) -> str:
         authored = file_attr.GetColorSpace() if file_attr.HasColorSpace() else ""
