@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 import OpenImageIO as oiio
 
+from corpus import _material
 from test_materials import render_and_locate, write_image
 
 HEADER = '#usda 1.0\n(\n    upAxis = "Y"\n)\n'
@@ -270,6 +271,9 @@ def test_unsupported_nodes_warn_and_fall_back_to_display_color(tmp_path):
             asset inputs:file = @nothere.png@
             float outputs:out
         }'''),
+        # MaterialX's UsdPreviewSurface node is read on the mtlx output only (as before elsewhere)
+        "Universal": _material("Universal", "color3f inputs:diffuseColor = (1, 0, 0)",
+                               shader_id="ND_UsdPreviewSurface_surfaceshader"),
         "Missing": mx("Missing", "ND_standard_surface_surfaceshader",
                       "float inputs:base = 1\n            color3f inputs:base_color.connect = "
                       "</Looks/Missing/Image.outputs:out>", missing),
@@ -283,10 +287,13 @@ def test_unsupported_nodes_warn_and_fall_back_to_display_color(tmp_path):
          "0.125) is used"),
         ("/Looks/Noisy/S", "inputs:base_color", "is connected to /Looks/Noisy/Noise (ND_noise2d_color3), which is "
          "not evaluated (it can be an ND_image_color3 or ND_tiledimage_color3 node); displayColor is used"),
+        ("/Looks/Universal", "outputs:surface", "its shader /Looks/Universal/Surface is "
+         "'ND_UsdPreviewSurface_surfaceshader', not UsdPreviewSurface, which is the only one supported; "
+         "displayColor is used"),
         ("/Looks/WeightMap/S", "inputs:base", "is connected to /Looks/WeightMap/Mask (ND_image_float), which is not "
          "evaluated (it can be a constant); displayColor is used"),
     ]
     for name, rgb in (("Noisy", (0.5, 0.75, 0.25)), ("Gltf", (0.5, 0.75, 0.25)), ("WeightMap", (0.5, 0.75, 0.25)),
-                      ("Missing", (0.5, 0.25, 0.125))):
+                      ("Universal", (0.5, 0.75, 0.25)), ("Missing", (0.5, 0.25, 0.125))):
         assert np.abs(region(*inner(spans[name])) - rgb).max() < TOL, name
     assert {s.material.prim_path for b in scene.bodies for s in b.surfaces} >= {"/Looks/Noisy", "/Looks/Gltf"}

@@ -115,10 +115,11 @@ class MaterialReader:
         source = material.ComputeSurfaceSource()
         shader = source[0] if isinstance(source, tuple) else source
         instead = "displayColor is used"
+        expected = "UsdPreviewSurface"  # on the universal output
         if not shader:
             mtlx = material.ComputeSurfaceSource(MTLX)[0]  # no universal surface here: the mtlx one only
             if mtlx and mtlx.GetShaderId() == MTLX_PREVIEW:
-                shader = mtlx  # MaterialX's UsdPreviewSurface: the same inputs, read as one
+                shader, expected = mtlx, MTLX_PREVIEW  # MaterialX's UsdPreviewSurface: the same inputs
             elif mtlx:
                 return self._materialx(material, mtlx)
         if not shader:
@@ -132,7 +133,7 @@ class MaterialReader:
                                 "UnsupportedShader")
             return None
         shader_id = shader.GetShaderId()
-        if shader_id not in ("UsdPreviewSurface", MTLX_PREVIEW):
+        if shader_id != expected:
             self.notes.warn(material.GetPrim(), "outputs:surface",
                             f"its shader {shader.GetPath()} is {str(shader_id or 'not identified')!r}, not "
                             f"UsdPreviewSurface, which is the only one supported; {instead}", "UnsupportedShader")
