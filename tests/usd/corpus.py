@@ -309,7 +309,9 @@ def Mesh "BareQuad" (prepend apiSchemas = ["MaterialBindingAPI"])
 
 
 def other_shaders() -> Stage:
-    """A MaterialX-only network (outputs:mtlx:surface) and a universal surface of another shader."""
+    """A MaterialX network (outputs:mtlx:surface, read since issue 16's MaterialX item) with
+    an input it does not honour, another render context's surface only, and a universal
+    surface of another shader."""
     looks = '''
     def Material "Metal"
     {
@@ -317,13 +319,26 @@ def other_shaders() -> Stage:
         def Shader "Std"
         {
             uniform token info:id = "ND_standard_surface_surfaceshader"
+            float inputs:metalness = 1
+            float inputs:specular_roughness = 0.05
+            token outputs:out
+        }
+    }
+    def Material "Ri"
+    {
+        token outputs:ri:surface.connect = </Looks/Ri/Disney.outputs:out>
+        def Shader "Disney"
+        {
+            uniform token info:id = "PxrDisneyBsdf"
             token outputs:out
         }
     }''' + _material("Pxr", "", shader_id="PxrSurface")
-    return Stage("shaders.usda", {"shaders.usda": _stage(f'def Scope "Looks"\n{{{looks}\n}}\n' + _bound_quads("Metal", "Pxr"))},
-                 [("/Looks/Metal", "outputs:mtlx:surface", "only a UsdPreviewSurface on outputs:surface is supported "
-                                                          "(not this render context's shading, e.g. MaterialX); "
-                                                          "displayColor is used"),
+    return Stage("shaders.usda", {"shaders.usda": _stage(f'def Scope "Looks"\n{{{looks}\n}}\n'
+                                                         + _bound_quads("Metal", "Ri", "Pxr"))},
+                 [("/Looks/Metal/Std", "inputs:specular_roughness", LAMBERT),
+                  ("/Looks/Ri", "outputs:ri:surface", "only a UsdPreviewSurface on outputs:surface or a MaterialX "
+                                                      "surface on outputs:mtlx:surface is supported (not this render "
+                                                      "context's shading); displayColor is used"),
                   ("/Looks/Pxr", "outputs:surface", "its shader /Looks/Pxr/Surface is 'PxrSurface', not "
                                                     "UsdPreviewSurface, which is the only one supported; displayColor "
                                                     "is used")])
