@@ -480,8 +480,7 @@ class Renderer:
             for tile in tiles:
                 launch(tile)
         else:
-            with ThreadPoolExecutor(max_workers=n_threads) as pool:
-                list(pool.map(launch, tiles))
+            list(_tile_pool(n_threads).map(launch, tiles))
         kernel_seconds = time.perf_counter() - t_kernel
         if film.overflow.numpy()[0]:
             raise RuntimeError("BVH traversal stack overflow: the image would be wrong (please report)")
@@ -551,6 +550,19 @@ class Renderer:
                 **self.scene.header(),  # metersPerUnit, timeCodesPerSecond
             },
         )
+
+
+_POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
+
+
+def _tile_pool(n_threads: int) -> ThreadPoolExecutor:
+    """This process's pool of ``n_threads`` tile threads, kept between frames (starting the
+    threads cost ~10 ms a frame); a forked child makes its own."""
+    key = (os.getpid(), n_threads)
+    pool = _POOLS.get(key)
+    if pool is None:
+        pool = _POOLS[key] = ThreadPoolExecutor(max_workers=n_threads, thread_name_prefix="warp-st-tiles")
+    return pool
 
 
 def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fine: bool = True,
