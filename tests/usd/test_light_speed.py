@@ -153,3 +153,16 @@ def Xform "Ship" (prepend apiSchemas = ["SpacetimeBodyAPI"])
     m = two.bodies[0].motion
     np.testing.assert_allclose(m.pivot[:, 0], 0.5 * (m.times - 6.0), atol=1e-12)
     np.testing.assert_allclose(m.pivot[:, 1], m.times / 20.0, atol=1e-12)
+
+
+def test_validate_takes_the_light_speed(tmp_path, capsys):
+    """The box moves 4 units in 10 time codes: 0.4 c at 1 unit per time code, 4 c at 0.1."""
+    path = stage(tmp_path)
+    code, out, _ = run(capsys, "validate", path)
+    assert code == 0 and "physical speed of light" in out and "Superluminal" not in out and " 4 c " not in out
+    code, out, _ = run(capsys, "validate", path, "--light-speed", "0.1units/timecode")
+    assert code == 0 and "light speed 0.1 stage units per time code: --light-speed 0.1 units/timecode" in out
+    assert "the animated pivot moves at 4 c between time codes 0 and 10 (>= the speed of light): rendered " \
+           "Lorentz-decoupled" in out
+    code, _, err = run(capsys, "validate", path, "--light-speed", "fast")
+    assert code == 2 and "--light-speed" in err
