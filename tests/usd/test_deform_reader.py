@@ -128,3 +128,23 @@ def test_point_count_changing_between_samples_is_a_warning(tmp_path):
     with pytest.warns(UserWarning, match=r"/Flag: points: the point count changes between time samples"):
         scene = warp_st.load(path)
     assert scene.bodies[0].surfaces[0].samples is None
+
+
+def test_posed_skeleton_without_animation_renders_its_pose(tmp_path):
+    """The skinned box with its upper joint held at 60 degrees (rotations not time-sampled):
+    nothing moves, so no samples, but the surface is UsdSkel's posed mesh (BakeSkinning on a
+    flattened copy, in the test), not the bind pose."""
+    from pxr import Gf, UsdSkel, Vt
+
+    path = skinned_box_stage(str(tmp_path / "posed.usda"))
+    stage = Usd.Stage.Open(path)
+    rotations = stage.GetPrimAtPath("/Arm/Skel/Bend").GetAttribute("rotations")
+    rotations.Clear()
+    rotations.Set(Vt.QuatfArray([Gf.Quatf(1, 0, 0, 0), Gf.Quatf(Gf.Rotation(Gf.Vec3d(0, 0, 1), 60).GetQuat())]))
+    stage.Save()
+    surface = warp_st.load(path).bodies[0].surfaces[0]
+    assert surface.samples is None
+    baked = Usd.Stage.Open(Usd.Stage.Open(path).Flatten())
+    assert UsdSkel.BakeSkinning(UsdSkel.Root(baked.GetPrimAtPath("/Arm")))
+    np.testing.assert_allclose(surface.points, _usd_world_points(baked, "/Arm/Box", 0.0), atol=1e-6)
+    assert surface.points[:, 0].min() < -0.9  # the upper ring swung over (bind pose: |x| <= 0.2)

@@ -21,7 +21,7 @@ from warp_st.core.deform import PointSamples
 from warp_st.usd.animation import PROBE_TOLERANCE, xform_sample_times
 from warp_st.usd.geometry import world_transform
 
-__all__ = ["points_sample_times", "is_skinned", "SkinnedStage", "sample_surface", "MAX_DEFORM_DEPTH"]
+__all__ = ["points_sample_times", "is_skinned", "SkinnedStage", "sample_surface", "posed_points", "MAX_DEFORM_DEPTH"]
 
 #: At most 2^MAX_DEFORM_DEPTH sample intervals per interval between USD's samples.
 MAX_DEFORM_DEPTH = 8
@@ -106,6 +106,21 @@ def sample_surface(where, prim, surface, source=None, notes=None) -> PointSample
         out_t.append(b)
         out_p.append(pb)
     return PointSamples(times=np.array(out_t, dtype=np.float64), points=np.array(out_p, dtype=np.float64))
+
+
+def posed_points(where, source, surface) -> np.ndarray | None:
+    """A skinned mesh's world points at the start time code as UsdSkel baked them (a
+    skeleton posed but not animated: no samples), in ``surface``'s point order; None when
+    the counts do not match."""
+    t = where.static if where.static is not None else 0.0
+    raw = _raw_points(UsdGeom.PointBased(source).GetPointsAttr(), t)
+    if len(raw) != len(surface.points):  # per-corner normals: one surface point per face corner
+        indices = np.asarray(UsdGeom.Mesh(source).GetFaceVertexIndicesAttr().Get(where.time), dtype=np.int64)
+        if len(indices) != len(surface.points) or (len(indices) and indices.max() >= len(raw)):
+            return None
+        raw = raw[indices]
+    m = _world(where, source, UsdGeom.Xformable(source), t)
+    return raw @ m[:3, :3] + m[3, :3]
 
 
 def _raw_points(attr, t: float) -> np.ndarray:

@@ -44,7 +44,7 @@ from warp_st.usd import attributes as A
 from warp_st.usd.animation import animated_op, sample_motion, xform_sample_times
 from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
 from warp_st.usd.camera import CameraEvaluator, frame_bounds
-from warp_st.usd.deform import SkinnedStage, is_skinned, points_sample_times, sample_surface
+from warp_st.usd.deform import SkinnedStage, is_skinned, points_sample_times, posed_points, sample_surface
 from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
 from warp_st.usd.dome import read_dome
 from warp_st.usd.geometry import GprimReader, is_hidden, world_transform
@@ -247,7 +247,8 @@ class _StageReader:
         surface = self.gprims.surface(prim)
         samples = None if surface is None else sample_surface(self.where, prim, surface, source, self.notes)
         if samples is None:
-            return surface
+            posed = None if surface is None or source == prim else posed_points(self.where, source, surface)
+            return surface if posed is None else dataclasses.replace(surface, points=posed)
         return dataclasses.replace(surface, samples=samples, points=samples.at(self.where.time.GetValue()),
                                    sphere=None, quadric=None)
 
