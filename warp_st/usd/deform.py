@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pxr import Usd, UsdGeom, UsdSkel
+from pxr import Tf, Usd, UsdGeom, UsdSkel
 
 from warp_st.core.deform import PointSamples
 from warp_st.usd.animation import PROBE_TOLERANCE, xform_sample_times
@@ -52,15 +52,30 @@ class SkinnedStage:
     def __init__(self, stage: Usd.Stage):
         self.stage = stage
         self._copy = None
+        self.failed: dict[str, str] = {}  # SkelRoot path -> why UsdSkel could not bake it
 
     def prim(self, path):
+        """The baked copy's prim at ``path`` (None when its SkelRoot could not be baked)."""
         if self._copy is None:
             copy = Usd.Stage.Open(self.stage.Flatten())
             for prim in copy.Traverse():
                 if prim.IsA(UsdSkel.Root):
-                    UsdSkel.BakeSkinning(UsdSkel.Root(prim))
+                    try:
+                        baked = UsdSkel.BakeSkinning(UsdSkel.Root(prim))
+                    except Tf.ErrorException as exc:
+                        self.failed[str(prim.GetPath())] = str(exc).strip().splitlines()[-1]
+                        continue
+                    if not baked:
+                        self.failed[str(prim.GetPath())] = "UsdSkel.BakeSkinning failed"
             self._copy = copy
-        return self._copy.GetPrimAtPath(path)
+        prim = self._copy.GetPrimAtPath(path)
+        root = UsdSkel.Root.Find(prim) if prim else None
+        return None if not prim or root and str(root.GetPath()) in self.failed else prim
+
+    def why(self, prim) -> str:
+        """Why ``prim``'s SkelRoot was not baked."""
+        root = UsdSkel.Root.Find(prim)
+        return self.failed.get(str(root.GetPath()) if root else "", "it is not in the baked copy")
 
 
 def sample_surface(where, prim, surface, source=None, notes=None) -> PointSamples | None:

@@ -233,6 +233,9 @@ class _StageReader:
             source = prim
         elif self.notes.count_samples and is_skinned(prim):
             source = self.skinned.prim(prim.GetPath())
+            if source is None:
+                self.notes.warn(prim, None, f"UsdSkel could not skin it ({self.skinned.why(prim)}); rendered as "
+                                            "authored", "NotHonoured")
         elif prim.IsA(UsdGeom.Mesh) and UsdSkel.Root.Find(prim) and UsdSkel.BindingAPI(prim).GetInheritedSkeleton():
             self.notes.warn(prim, "primvars:skel:jointIndices", "the mesh is bound to a skeleton but has no joint "
                                                                 "indices: UsdSkel does not skin it; rendered as "
