@@ -18,9 +18,10 @@ __all__ = ["PointSamples", "deforming", "surface_hull_points"]
 class PointSamples:
     """A surface's world-space points, lab frame, float64, at lab times ``times``.
 
-    times: increasing lab times (time codes), (N,) with N >= 2: USD's sample times of the
-        points and of every xformOp above them, refined until linear interpolation between
-        neighbours follows USD (a rotating transform bends a point's path between samples);
+    times: increasing lab times (the stage's light speed x time codes), (N,) with N >= 2:
+        USD's sample times of the points and of every xformOp above them, refined until
+        linear interpolation between neighbours follows USD (a rotating transform bends a
+        point's path between samples);
     points: the surface's points at each time, (N, P, 3), in the order of
         ``Surface.points`` (``spacetime:fourVelocity``'s uniform motion not included).
     Between the times a point moves linearly; before the first and after the last it is

@@ -249,6 +249,11 @@ class Renderer:
     def _camera(self, frame: float) -> CameraState:
         return self.scene.camera_state(self.camera_path, frame)
 
+    @property
+    def _lab_shutter(self) -> float:
+        """The shutter (time codes) in lab time (docs/spec.md §3.1)."""
+        return self.shutter * self.scene.light_speed
+
     def _frame_light_speed(self, cam: CameraState) -> LightSpeed:
         return self.light_speed or LightSpeed(cam.light_speed)
 
@@ -263,7 +268,7 @@ class Renderer:
         t0 = time.perf_counter()
         modes = {self._frame_light_speed(c) for c in cams}
         # The shutter moves each camera event along its worldline by up to `shutter`.
-        shutter = self.shutter if self.samples > 1 else 0.0
+        shutter = self._lab_shutter if self.samples > 1 else 0.0
         ends = cams + [c.advanced(shutter) for c in cams if shutter > 0.0]
         cache = database_cache.for_scene(self.scene)
         scene = self.scene
@@ -452,7 +457,7 @@ class Renderer:
             doppler_color=self.doppler_color, searchlight=self.searchlight, dome=self.scene.dome,
         )
         kcam = make_camera(
-            k, cam, self.width, self.height, self._frame_light_speed(cam), samples=self.samples, shutter=self.shutter
+            k, cam, self.width, self.height, self._frame_light_speed(cam), samples=self.samples, shutter=self._lab_shutter
         )
 
         n_pix = self.width * self.height
@@ -493,12 +498,16 @@ class Renderer:
     def _image(self, film, cam: CameraState, frame: float) -> Image:
         h, w = self.height, self.width
         rgba = film.rgba.numpy().reshape(h, w, 4).astype(np.float32)
+        # The kernels' times are lab times; the image's are time codes (lab / the light speed, §3.1).
+        per_code = float(self.scene.light_speed)
         rel = film.event_time.numpy().reshape(h, w)
-        origin = float(cam.time)
+        origin = float(cam.time) / per_code
         object_id = film.object_id.numpy().reshape(h, w).astype(np.uint32)
         if self.object_of is not None:  # an animated body's pieces are one object
             object_id = np.where(object_id > 0, self.object_of[np.maximum(object_id, 1) - 1] + 1, 0).astype(np.uint32)
         source_rel = film.source_time.numpy().reshape(h, w)
+        if per_code != 1.0:
+            rel, source_rel = rel.astype(np.float64) / per_code, source_rel.astype(np.float64) / per_code
         # Absolute times, quantised exactly as the EXR stores them: float32 relative to t_c,
         # and in float64 renders with each one's float32 residual beside it (channels.py).
         times, lows = {}, {}
@@ -519,7 +528,7 @@ class Renderer:
             rgba=rgba,
             depth=film.depth.numpy().reshape(h, w).astype(np.float32),
             event_time=event_time,
-            proper_time=film.proper_time.numpy().reshape(h, w).astype(np.float32),
+            proper_time=(film.proper_time.numpy().reshape(h, w) / np.float32(per_code)).astype(np.float32),
             doppler=film.doppler.numpy().reshape(h, w).astype(np.float32),
             object_id=object_id,
             source_time=source_time,

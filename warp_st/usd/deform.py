@@ -79,7 +79,8 @@ class SkinnedStage:
 
 
 def sample_surface(where, prim, surface, source=None, notes=None) -> PointSamples | None:
-    """World points of ``surface`` (read from ``prim``) at USD's sample times, refined;
+    """World points of ``surface`` (read from ``prim``) at USD's sample times, refined (as
+    lab times: time codes x ``where.lab_per_code``);
     ``source``: the prim to evaluate (the baked copy's for a skinned mesh; default ``prim``).
     None when nothing moves the points (fewer than two sample times), or when the point
     count changes between samples (a warning in ``notes``: the static points are used)."""
@@ -120,7 +121,9 @@ def sample_surface(where, prim, surface, source=None, notes=None) -> PointSample
         _refine(evaluate, a, b, out_p[-1], pb, 0, out_t, out_p)
         out_t.append(b)
         out_p.append(pb)
-    return PointSamples(times=np.array(out_t, dtype=np.float64), points=np.array(out_p, dtype=np.float64))
+    # lab time = the stage's light speed x time code (docs/spec.md §1)
+    return PointSamples(times=where.lab_per_code * np.array(out_t, dtype=np.float64),
+                        points=np.array(out_p, dtype=np.float64))
 
 
 def posed_points(where, source, surface) -> np.ndarray | None:

@@ -38,11 +38,26 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdSkel
 
 from warp_st.core.conventions import DEFAULT_RESOLUTION, Precision
+from warp_st.core.light_speed import (
+    METRES_PER_SECOND,
+    PHYSICAL_LIGHT_SPEED,
+    UNITS_PER_TIME_CODE,
+    LightSpeedSetting,
+    parse_light_speed,
+    physical_units_per_time_code,
+)
 from warp_st.core.limits import MAX_BOUNCES, MAX_PIXELS, MAX_SAMPLES
 from warp_st.core.scene import DEFAULT_CAMERA, Body, Light, RenderSettings, Scene, SceneError, Surface
 from warp_st.usd import attributes as A
 from warp_st.usd.animation import animated_op, sample_motion, xform_sample_times
-from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
+from warp_st.usd.attributes import (
+    SPACETIME_BODY_API,
+    SPACETIME_CAMERA_API,
+    Where,
+    body_kinematics,
+    has_api,
+    static_time,
+)
 from warp_st.usd.camera import CameraEvaluator, frame_bounds
 from warp_st.usd.deform import SkinnedStage, is_skinned, points_sample_times, posed_points, sample_surface
 from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
@@ -55,6 +70,10 @@ from warp_st.usd.stage import open_stage, tf_message
 __all__ = ["load_scene", "read_stage", "open_stage", "CameraEvaluator", "body_kinematics"]
 
 _PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+SPACETIME_APIS = (SPACETIME_BODY_API, SPACETIME_CAMERA_API)
+#: The render settings' light speed (docs/spec.md §3.1): metres per second, or stage units per time code.
+SCHEMA_LIGHT_SPEED = "the stage applies the spacetime schemas: 1 stage unit per time code"
+SETTINGS_LIGHT_SPEED = ("spacetime:lightSpeedMetersPerSecond", "spacetime:lightSpeedUnitsPerTimeCode")
 
 
 # -- bodies ---------------------------------------------------------------------------
@@ -96,11 +115,14 @@ class _StageReader:
         self._current = None
         self.skinned = SkinnedStage(stage)  # UsdSkel.BakeSkinning on a copy, made on first use
 
-    def read(self, *, reopen: str | None = None, no_references: bool = False) -> Scene:
+    def read(self, *, reopen: str | None = None, no_references: bool = False,
+             light_speed: LightSpeedSetting | None = None) -> Scene:
         # (not in __init__: validators build readers inside USD's worker threads, where
         # GetUsedLayers can wait on a lock a thread waiting for the GIL holds)
         self.notes.count_samples = samples_listable(self.stage)
         composition(self.notes, self.stage)
+        self.light_speed, self.light_speed_origin = self._light_speed(light_speed)
+        self.where = dataclasses.replace(self.where, lab_per_code=self.light_speed)
         self._traverse()
         dome = read_dome(self.where, self.notes, self.domes, self._world)  # the sky (usd/dome.py)
         settings_prim = self._settings_prim()
@@ -115,8 +137,8 @@ class _StageReader:
         cameras = tuple(self.cameras)
         framing = None
         if bodies:
-            framing = frame_bounds(*_bounds(bodies, self.stage), str(UsdGeom.GetStageUpAxis(self.stage)),
-                                   _aspect(settings.resolution))
+            framing = dataclasses.replace(frame_bounds(*_bounds(bodies, self.stage), str(UsdGeom.GetStageUpAxis(
+                self.stage)), _aspect(settings.resolution)), lab_per_code=self.light_speed)
         self._closing_notes(cameras, framing)
         default_camera = settings.camera or (cameras[0] if cameras else DEFAULT_CAMERA)
         frame_range = None
@@ -138,11 +160,13 @@ class _StageReader:
             meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(self.stage)),
             time_codes_per_second=float(self.stage.GetTimeCodesPerSecond()),
             dome=dome,
+            light_speed=self.light_speed,
+            light_speed_origin=self.light_speed_origin,
         )
 
     def _closing_notes(self, cameras, framing) -> None:
         """What only the whole stage tells: subdivision (one line), bodies with nothing to
-        draw, the default camera (information) or nothing to render at all."""
+        draw, the light speed and the default camera (information) or nothing to render at all."""
         if self.gprims.subdivided:
             first, more = self.gprims.subdivided[0], len(self.gprims.subdivided) - 1
             others = f" (and {more} more mesh{'es' if more > 1 else ''})" if more else ""
@@ -152,6 +176,9 @@ class _StageReader:
             if not body.surfaces and body.api:
                 self.notes.warn(body.prim_path, None, "has SpacetimeBodyAPI but no visible supported geometry of its "
                                                       "own: nothing of this body is rendered", "EmptyBody")
+        if self.light_speed_origin != SCHEMA_LIGHT_SPEED:
+            self.notes.info(None, None, f"light speed {self.light_speed:.9g} stage units per time code: "
+                                        f"{self.light_speed_origin}", "LightSpeed")
         if not cameras and framing is None:
             self.notes.warn(None, None, "the stage has no camera and no supported visible geometry: there is nothing "
                                         "to render (as a layer to reference it is fine)", "NothingToRender")
@@ -192,7 +219,8 @@ class _StageReader:
                 check_prim(notes, prim, time, samples=False)  # a camera is evaluated per frame
                 continue
             if prim.IsA(UsdRender.Settings):
-                self.settings_prims.append(prim)
+                if prim not in self.settings_prims:  # (the light-speed pass found it first)
+                    self.settings_prims.append(prim)
                 it.PruneChildren()
                 continue
             if hidden is None and is_hidden(prim, time):
@@ -252,7 +280,7 @@ class _StageReader:
         if samples is None:
             posed = None if surface is None or source == prim else posed_points(self.where, source, surface)
             return surface if posed is None else dataclasses.replace(surface, points=posed)
-        return dataclasses.replace(surface, samples=samples, points=samples.at(self.where.time.GetValue()),
+        return dataclasses.replace(surface, samples=samples, points=samples.at(self.where.lab_per_code * self.where.time.GetValue()),
                                    sphere=None, quadric=None)
 
     def _deforming_body(self, body: _BodyBuilder) -> None:
@@ -321,7 +349,7 @@ class _StageReader:
         if not speeds.size or not float(speeds.max()) >= 1.0:
             return
         k = int(np.argmax(speeds))
-        t = body.motion.times
+        t = body.motion.times / self.where.lab_per_code  # time codes
         lo = max(s for s in samples if s <= t[k])
         hi = min(s for s in samples if s >= t[k + 1])
         owner, op = animated_op(prim)  # the attribute at fault: the xformOp that moves the body
@@ -349,6 +377,42 @@ class _StageReader:
             self.lights.append(light)
 
     # -- render settings ------------------------------------------------------------
+    def _light_speed(self, requested: LightSpeedSetting | None) -> tuple[float, str]:
+        """The stage's light speed in stage units per time code, and where it comes from
+        (docs/spec.md §3.1): ``requested`` (--light-speed), else the render settings'
+        ``spacetime:lightSpeedMetersPerSecond`` / ``spacetime:lightSpeedUnitsPerTimeCode``,
+        else 1 when the stage applies our schemas (or authors spacetime: attributes on a
+        camera or the render settings), else the physical speed of light."""
+        stage = self.stage
+        mpu, tcps = float(UsdGeom.GetStageMetersPerUnit(stage)), float(stage.GetTimeCodesPerSecond())
+        units = f"at metersPerUnit {mpu:g} and {tcps:g} time codes per second"
+        if requested is not None:
+            return requested.units_per_time_code(mpu, tcps), f"--light-speed {requested} ({units})"
+        ours, settings = False, []
+        for prim in Usd.PrimRange(stage.GetPseudoRoot(), _PREDICATE):
+            if prim.IsA(UsdRender.Settings):
+                settings.append(prim)
+            if not ours and (any(a in SPACETIME_APIS for a in prim.GetAppliedSchemas())
+                             or (prim.IsA(UsdGeom.Camera) or prim.IsA(UsdRender.Settings))
+                             and any(n.startswith("spacetime:") for n in prim.GetAuthoredPropertyNames())):
+                ours = True
+        self.settings_prims = settings
+        prim = self._settings_prim()
+        if prim is not None:
+            w = self.where
+            given = [(name, A.real(w, prim, name, None, positive=True)) for name in SETTINGS_LIGHT_SPEED]
+            given = [(name, value) for name, value in given if value is not None]
+            if len(given) > 1:
+                raise w.error(prim, given[1][0], f"conflicts with {given[0][0]}: author one light speed")
+            if given:
+                name, value = given[0]
+                unit = METRES_PER_SECOND if name == SETTINGS_LIGHT_SPEED[0] else UNITS_PER_TIME_CODE
+                setting = LightSpeedSetting(value, unit)
+                return setting.units_per_time_code(mpu, tcps), f"{prim.GetPath()}.{name} = {setting} ({units})"
+        if ours:
+            return 1.0, SCHEMA_LIGHT_SPEED
+        return physical_units_per_time_code(mpu, tcps), f"the physical speed of light, {PHYSICAL_LIGHT_SPEED:.9g} m/s {units}"
+
     def _settings_prim(self):
         """The stage's renderSettingsPrimPath, else the first RenderSettings prim, else None."""
         chosen = self.stage.GetMetadata("renderSettingsPrimPath") or ""
@@ -426,27 +490,31 @@ def _bounds(bodies, stage) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def load_scene(source, *, no_references: bool = False) -> Scene:
+def load_scene(source, *, no_references: bool = False, light_speed: str | LightSpeedSetting | None = None) -> Scene:
     """Read a USD stage (a path or a ``Usd.Stage``) into a :class:`Scene`.
 
     Raises :class:`SceneError` (one line naming the file, prim and attribute) for a
     stage that cannot be opened or holds nothing to render, and for bad values of our
     own ``spacetime:`` attributes (and geometry that cannot be built); what the reader
     leaves out is a Python warning each (``Scene.diagnostics``). ``no_references=True``
-    composes only the file's own layers (see :func:`open_stage`).
+    composes only the file's own layers (see :func:`open_stage`). ``light_speed`` (e.g.
+    ``"299792458m/s"``, ``"2units/timecode"``) overrides the stage's (docs/spec.md §3.1).
     """
+    if isinstance(light_speed, str):
+        light_speed = parse_light_speed(light_speed)
     stage, where = open_stage(source, no_references=no_references)
     reopen = None if isinstance(source, Usd.Stage) else os.path.abspath(os.fspath(source))
-    scene = read_stage(stage, where, reopen=reopen, no_references=no_references)
+    scene = read_stage(stage, where, reopen=reopen, no_references=no_references, light_speed=light_speed)
     for note in scene.diagnostics:
         if note.severity == "warning":
             warnings.warn(note.text(), stacklevel=2)
     return scene
 
 
-def read_stage(stage: Usd.Stage, where: Where, *, reopen: str | None = None, no_references: bool = False) -> Scene:
+def read_stage(stage: Usd.Stage, where: Where, *, reopen: str | None = None, no_references: bool = False,
+               light_speed: LightSpeedSetting | None = None) -> Scene:
     """The :class:`Scene` of an open stage, its diagnostics not emitted (``load_scene`` warns them)."""
     try:
-        return _StageReader(stage, where).read(reopen=reopen, no_references=no_references)
+        return _StageReader(stage, where).read(reopen=reopen, no_references=no_references, light_speed=light_speed)
     except (Tf.ErrorException, UnicodeDecodeError) as exc:  # a value USD cannot unpack outside the traversal
         raise SceneError.at(where.file, None, None, f"cannot be read: {tf_message(exc)}") from None
