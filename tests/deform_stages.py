@@ -5,7 +5,12 @@ from __future__ import annotations
 import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdSkel
 
-from animation_stages import HEADER
+from animation_stages import HEADER as _PLAIN
+
+#: ``animation_stages.HEADER`` with its camera applying SpacetimeCameraAPI: the stage uses
+#: our schemas, so its light speed is 1 stage unit per time code (docs/spec.md §1).
+HEADER = _PLAIN.replace('def Camera "Cam"\n', 'def Camera "Cam" (prepend apiSchemas = ["SpacetimeCameraAPI"])\n', 1)
+assert HEADER != _PLAIN
 
 
 def _points(values) -> str:

@@ -19,7 +19,7 @@ import warp_st
 from warp_st.core.scene import SceneError
 from warp_st.rendering.renderer import Renderer
 
-from animation_stages import HEADER, hit_events, write
+from animation_stages import hit_events, write
 from deform_stages import flag_samples, grid, mesh_stage, skinned_box_stage, usd_surface_distance
 
 W, H = 128, 96

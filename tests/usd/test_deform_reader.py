@@ -16,8 +16,8 @@ from pxr import Usd, UsdGeom
 import warp_st
 from warp_st.usd.animation import PROBE_TOLERANCE
 
-from animation_stages import HEADER, write
-from deform_stages import flag_samples, mesh_stage, skinned_box_stage
+from animation_stages import write
+from deform_stages import HEADER, flag_samples, mesh_stage, skinned_box_stage
 
 TURNING = HEADER + '''def Xform "Turntable"
 {
@@ -148,3 +148,15 @@ def test_posed_skeleton_without_animation_renders_its_pose(tmp_path):
     assert UsdSkel.BakeSkinning(UsdSkel.Root(baked.GetPrimAtPath("/Arm")))
     np.testing.assert_allclose(surface.points, _usd_world_points(baked, "/Arm/Box", 0.0), atol=1e-6)
     assert surface.points[:, 0].min() < -0.9  # the upper ring swung over (bind pose: |x| <= 0.2)
+
+
+def test_point_samples_are_lab_times_at_the_stage_light_speed(tmp_path):
+    """Lab time = light speed x time code (docs/spec.md §1): at 3 stage units per time code
+    the flag's samples (time codes 0 and 10) are at lab times 0 and 30, and the surface is
+    the start time code's points."""
+    samples, counts, indices = flag_samples(10.0)
+    path = write(tmp_path, "flag.usda", mesh_stage("Flag", samples, counts, indices))
+    scene = warp_st.load(path, light_speed="3u/tc")
+    surface = scene.bodies[0].surfaces[0]
+    assert surface.samples.times.tolist() == [0.0, 30.0]
+    np.testing.assert_allclose(surface.samples.at(15.0), 0.5 * (samples[0.0] + samples[10.0]), atol=1e-6)

@@ -301,11 +301,11 @@ class _StageReader:
                                                              "body's animation (rendered where it is at the start "
                                                              "time code)", "NotHonoured")
             body.motion = None
-        times = np.concatenate([s.samples.times for s in deforming])
+        times = np.concatenate([s.samples.times for s in deforming]) / self.where.lab_per_code  # time codes
         how = "Lorentz-decoupled: its points are lab positions" + ("" if body.decoupled or not body.api else
                                                                      " (spacetime:lorentzDecoupled is not set)")
         self.notes.info(body.prim_path, None, f"deforming: {len(deforming)} surface(s) sampled at "
-                                              f"{len(np.unique(times))} times ({times.min():g} to {times.max():g}); "
+                                              f"{len(np.unique(times))} time codes ({times.min():g} to {times.max():g}); "
                                               f"{how}; the scene renders on the tetrahedral path", "Deforming")
         body.decoupled = True
 
