@@ -346,8 +346,8 @@ def other_shaders() -> Stage:
 
 def animated() -> Stage:
     """A turntable (time-sampled rotation on a parent Xform: honoured since issue 18, not
-    warned), a deforming mesh on it whose points are only time-sampled (read at the start
-    time code), a pulsing sphere radius, a body's
+    warned), a deforming mesh on it whose points are time-sampled (honoured since issue 18:
+    an info line, not a warning), a pulsing sphere radius, a body's
     time-sampled spacetime attribute beside its default, and instancer velocities."""
     return Stage("anim.usda", {"anim.usda": _stage('''
 def Xform "Turntable"
@@ -390,8 +390,7 @@ def PointInstancer "Swarm"
     }
 }
 ''')},
-        [("/Turntable/Cloth", "points", f"has 2 time samples (1 to 12); {ANIMATED}"),
-         ("/Pulse", "radius", f"has 2 time samples (1 to 24); {ANIMATED}"),
+        [("/Pulse", "radius", f"has 2 time samples (1 to 24); {ANIMATED}"),
          ("/Probe", "spacetime:referenceTime", "has 2 time samples (1 to 2); USD animation is not rendered yet: "
                                                "every frame uses its default value"),
          ("/Swarm", "velocities", "motion from velocities is not rendered; ignored")])
@@ -501,7 +500,8 @@ def {kind} "{kind}{axis}"
 
 
 def skinned() -> Stage:
-    """A skinned character (UsdSkel): rendered unskinned, with one warning."""
+    """A mesh bound to a skeleton without joint indices (UsdSkel does not skin it): rendered
+    as authored, with one warning."""
     return Stage("skel.usda", {"skel.usda": _stage(f'''
 def SkelRoot "Character"
 {{
@@ -515,7 +515,8 @@ def SkelRoot "Character"
         rel skel:skeleton = </Character/Rig>
     }}
 }}
-''')}, [("/Character", None, "UsdSkel skinning is not applied: the meshes below render as authored (their bind pose)")])
+''')}, [("/Character/Skin", "primvars:skel:jointIndices", "the mesh is bound to a skeleton but has no joint indices: "
+                                                    "UsdSkel does not skin it; rendered as authored")])
 
 
 def camera_and_settings() -> Stage:

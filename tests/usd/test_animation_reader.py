@@ -103,7 +103,8 @@ def test_four_velocity_composes_with_the_animation(tmp_path):
 
 def test_honoured_samples_are_not_warned_the_rest_still_is(tmp_path):
     """The body's and its ancestors' xformOps are honoured (no "TimeSampled" warning); a
-    time-sampled xformOp below the body's prim and time-sampled points still warn."""
+    time-sampled xformOp below the body's prim and time-sampled normals still warn (time-sampled
+    points are honoured: tests/usd/test_deform_reader.py)."""
     text = HEADER + '''def Xform "Carrier"
 {
     double3 xformOp:translate.timeSamples = { 0: (0, 0, 0), 10: (1, 0, 0) }
@@ -118,7 +119,8 @@ def test_honoured_samples_are_not_warned_the_rest_still_is(tmp_path):
             uniform token[] xformOpOrder = ["xformOp:rotateX"]
             def Mesh "Gun"
             {
-                point3f[] points.timeSamples = { 0: [(0, 0, 0), (1, 0, 0), (0, 1, 0)], 5: [(0, 0, 0), (2, 0, 0), (0, 1, 0)] }
+                point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+                normal3f[] normals.timeSamples = { 0: [(0, 0, 1), (0, 0, 1), (0, 0, 1)], 5: [(0, 1, 0), (0, 1, 0), (0, 1, 0)] }
                 int[] faceVertexCounts = [3]
                 int[] faceVertexIndices = [0, 1, 2]
             }
@@ -129,7 +131,7 @@ def test_honoured_samples_are_not_warned_the_rest_still_is(tmp_path):
     with pytest.warns(UserWarning):
         scene = warp_st.load(write(tmp_path, "w.usda", text))
     sampled = {(d.prim, d.attribute) for d in scene.diagnostics if d.code == "TimeSampled"}
-    assert sampled == {("/Carrier/Ship/Turret", "xformOp:rotateX"), ("/Carrier/Ship/Turret/Gun", "points")}
+    assert sampled == {("/Carrier/Ship/Turret", "xformOp:rotateX"), ("/Carrier/Ship/Turret/Gun", "normals")}
     assert scene.bodies[0].motion is not None and scene.bodies[0].motion.sample_times == (0.0, 10.0)
 
 

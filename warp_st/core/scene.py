@@ -145,6 +145,9 @@ class Surface:
         approximate: (kind "cylinder" / "cone" / "capsule", axis "X" / "Y" / "Z", radius,
         height, world_from_local 4x4 as for ``sphere``); None otherwise. The rigid path
         traces it exactly (``spacetime.rigid``).
+    samples: a ``warp_st.core.deform.PointSamples`` when USD deforms the surface
+        (time-sampled ``points`` or UsdSkel skinning, docs/spec.md §2.2; ``points`` is
+        then its value at the start time code), else None.
     """
 
     prim_path: str
@@ -157,6 +160,7 @@ class Surface:
     st: np.ndarray | None = None
     subset_materials: tuple[Material, ...] = ()
     triangle_material: np.ndarray | None = None
+    samples: object = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -32,6 +32,7 @@ from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limit
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.animation import animated_bodies, animation_cuts
+from warp_st.spacetime.deform import deform_primitive
 from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
 from warp_st.spacetime.rigid import all_exact_quadrics, quadric_body
 from warp_st.spacetime.visibility import union, visibility_windows
@@ -192,6 +193,7 @@ class Renderer:
         # The rigid path's wp.Mesh queries are float32: in float64 it serves only scenes
         # whose every body is an exact quadric (then it is exact in float64).
         all_exact = quadrics != "tessellated" and all_exact_quadrics(scene)
+        primitive = deform_primitive(scene, primitive)  # deforming bodies: tetrahedra (docs/spec.md §2.2)
         if primitive is None:
             primitive = "rigid" if self.precision == Precision.FLOAT32 or all_exact else "prism"
         if primitive == "rigid" and self.precision != Precision.FLOAT32 and not all_exact:

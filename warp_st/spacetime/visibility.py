@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from warp_st.core.lorentz import contraction_matrix
+from warp_st.core.deform import deforming, surface_hull_points
 from warp_st.core.scene import Body, CameraState, Scene, surface_triangles
 
 __all__ = ["body_ball", "body_pieces", "frame_window", "hull", "intervals", "union", "intersection", "span",
@@ -39,7 +40,7 @@ _UNBOUNDED_REACH = 1e6
 
 def body_ball(body: Body) -> tuple[np.ndarray, float]:
     """Centre m0 (lab, at t_ref) and radius rho of a ball holding the contracted body."""
-    pts = np.concatenate([s.points for s in body.surfaces]) if body.surfaces else np.zeros((1, 3))
+    pts = np.concatenate([surface_hull_points(s) for s in body.surfaces]) if body.surfaces else np.zeros((1, 3))
     A = contraction_matrix(body.velocity, body.decoupled)
     local = (pts - body.origin) @ A.T + body.origin
     m0 = 0.5 * (local.min(axis=0) + local.max(axis=0))
@@ -57,7 +58,7 @@ def body_pieces(body: Body) -> list[tuple[np.ndarray, float]]:
     spatial clusters, each ball holding its triangles' vertices (so their whole
     triangles). A body with an analytic sphere (re-tessellated at render time) stays
     one piece, ``body_ball``."""
-    if not body.surfaces or any(s.sphere is not None for s in body.surfaces):
+    if not body.surfaces or any(s.sphere is not None for s in body.surfaces) or deforming(body):
         return [body_ball(body)]
     A = contraction_matrix(body.velocity, body.decoupled)
     tri = np.concatenate([((s.points - body.origin) @ A.T + body.origin)[surface_triangles(s)] for s in body.surfaces])

@@ -51,6 +51,7 @@ from warp_st.usd.attributes import (
     static_time,
 )
 from warp_st.usd.camera import CameraEvaluator, frame_bounds
+from warp_st.usd.deform import SkinnedStage, is_skinned, points_sample_times, posed_points, sample_surface
 from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
 from warp_st.usd.dome import read_dome
 from warp_st.usd.geometry import GprimReader, is_hidden, world_transform
@@ -101,6 +102,7 @@ class _StageReader:
         self.cameras: list[str] = []
         self.settings_prims: list = []
         self._current = None
+        self.skinned = SkinnedStage(stage)  # UsdSkel.BakeSkinning on a copy, made on first use
 
     def read(self, *, reopen: str | None = None, no_references: bool = False,
              light_speed: LightSpeedSetting | None = None) -> Scene:
@@ -118,6 +120,8 @@ class _StageReader:
                                                                    self._resolution)
         if settings_prim is not None:
             check_prim(self.notes, settings_prim, self.where.time)
+        for body in self.bodies:
+            self._deforming_body(body)
         bodies = tuple(b.build() for b in self.bodies if b.surfaces)
         cameras = tuple(self.cameras)
         framing = None
@@ -221,9 +225,6 @@ class _StageReader:
             why = unknown_type(prim)
             if why:
                 notes.warn(prim, None, why, "UnsupportedPrim")
-            if prim.IsA(UsdSkel.Root):
-                notes.warn(prim, None, "UsdSkel skinning is not applied: the meshes below render as authored "
-                                       "(their bind pose)", "NotHonoured")
             if prim.HasAPI(UsdLux.MeshLightAPI) or prim.HasAPI(UsdLux.VolumeLightAPI):
                 notes.warn(prim, None, "MeshLightAPI / VolumeLightAPI is not honoured: the prim does not light "
                                        "the scene", "NotHonoured")
@@ -237,9 +238,65 @@ class _StageReader:
             elif prim.IsA(UsdGeom.Gprim):
                 if not owners:
                     self._animation_samples(prim)
-                surface = self.gprims.surface(prim)
+                surface = self._deformed(prim)
                 if surface is not None:
                     self._owner(owners, prim).surfaces.append(surface)
+
+    def _deformed(self, prim):
+        """The gprim's surface; a mesh with time-sampled points or skinned by UsdSkel gets
+        its world points at USD's sample times (docs/spec.md §2.2, ``usd/deform.py``)."""
+        source = None
+        if self.notes.count_samples and points_sample_times(prim):
+            source = prim
+        elif self.notes.count_samples and is_skinned(prim):
+            source = self.skinned.prim(prim.GetPath())
+            if source is None:
+                self.notes.warn(prim, None, f"UsdSkel could not skin it ({self.skinned.why(prim)}); rendered as "
+                                            "authored", "NotHonoured")
+        elif prim.IsA(UsdGeom.Mesh) and UsdSkel.Root.Find(prim) and UsdSkel.BindingAPI(prim).GetInheritedSkeleton():
+            self.notes.warn(prim, "primvars:skel:jointIndices", "the mesh is bound to a skeleton but has no joint "
+                                                                "indices: UsdSkel does not skin it; rendered as "
+                                                                "authored", "NotHonoured")
+        if source is None:
+            return self.gprims.surface(prim)
+        p = prim
+        self.notes.deformed.add(str(prim.GetPath()))
+        while p and not p.IsPseudoRoot():  # its world points follow every xformOp above it
+            self.notes.animated.add(str(p.GetPath()))
+            p = p.GetParent()
+        surface = self.gprims.surface(prim)
+        samples = None if surface is None else sample_surface(self.where, prim, surface, source, self.notes)
+        if samples is None:
+            posed = None if surface is None or source == prim else posed_points(self.where, source, surface)
+            return surface if posed is None else dataclasses.replace(surface, points=posed)
+        return dataclasses.replace(surface, samples=samples, points=samples.at(self.where.lab_per_code * self.where.time.GetValue()),
+                                   sphere=None, quadric=None)
+
+    def _deforming_body(self, body: _BodyBuilder) -> None:
+        """A body with a deforming surface (docs/spec.md §2.2): Lorentz-decoupled (its points
+        are lab positions), its other surfaces sampled through their world transforms when
+        USD animates it (then it has no rigid motion of its own)."""
+        deforming = [s for s in body.surfaces if s.samples is not None]
+        if not deforming:
+            return
+        if body.motion is not None:
+            for i, surface in enumerate(body.surfaces):
+                prim = self.stage.GetPrimAtPath(surface.prim_path) if surface.samples is None else None
+                samples = sample_surface(self.where, prim, surface) if prim and prim.IsA(UsdGeom.Gprim) else None
+                if samples is not None:
+                    body.surfaces[i] = dataclasses.replace(surface, samples=samples, sphere=None, quadric=None)
+                elif surface.samples is None:
+                    self.notes.warn(surface.prim_path, None, "an instance in a deforming body: it does not follow the "
+                                                             "body's animation (rendered where it is at the start "
+                                                             "time code)", "NotHonoured")
+            body.motion = None
+        times = np.concatenate([s.samples.times for s in deforming]) / self.where.lab_per_code  # time codes
+        how = "Lorentz-decoupled: its points are lab positions" + ("" if body.decoupled or not body.api else
+                                                                     " (spacetime:lorentzDecoupled is not set)")
+        self.notes.info(body.prim_path, None, f"deforming: {len(deforming)} surface(s) sampled at "
+                                              f"{len(np.unique(times))} time codes ({times.min():g} to {times.max():g}); "
+                                              f"{how}; the scene renders on the tetrahedral path", "Deforming")
+        body.decoupled = True
 
     def _world(self, prim) -> Gf.Matrix4d:
         """The prim's world transform, finite and within MAX_MAGNITUDE (else SceneError naming the op)."""
