@@ -408,6 +408,11 @@ def _occluder_windows(scene, body, m0, rho, sources, infinite):
     t_ref = body.reference_time
     los, his = [], []
     for light in scene.lights:
+        if light.kind == "distant" and light.motion is not None:
+            # an animated direction (docs/spec.md §3.4): no phase is conserved; not narrowed
+            los.append(np.full(len(centre), -np.inf))
+            his.append(t_hi + rho)
+            continue
         if light.kind == "distant":
             # phase t + x(t).l = k is linear in t: t (1 + v.l) = k - m0.l + (v.l) t_ref.
             l = np.asarray(light.direction, dtype=np.float64)

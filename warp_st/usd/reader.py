@@ -46,6 +46,7 @@ from warp_st.usd.camera import CameraEvaluator, frame_bounds
 from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
 from warp_st.usd.dome import read_dome
 from warp_st.usd.geometry import GprimReader, is_hidden, world_transform
+from warp_st.usd.light_motion import light_in_motion
 from warp_st.usd.lights import SUPPORTED, read_light
 from warp_st.usd.products import read_products
 from warp_st.usd.stage import open_stage, tf_message
@@ -284,11 +285,12 @@ class _StageReader:
             self.gprims.check(prim)
             self.domes.append(prim)
             return
+        samples = self._animation_samples(prim) if str(prim.GetTypeName()) in SUPPORTED else ()
         if str(prim.GetTypeName()) in SUPPORTED:
-            self.gprims.check(prim)
+            self.gprims.check(prim)  # after the samples: an animated light's xformOp samples are honoured
         light = read_light(self.where, prim, self._world(prim), self.notes)
         if light is not None:
-            self.lights.append(light)
+            self.lights.append(light_in_motion(self.where, prim, light, samples, self.notes))
 
     # -- render settings ------------------------------------------------------------
     def _settings_prim(self):
