@@ -1,0 +1,218 @@
+"""Animated UsdLux lights against closed forms (docs/spec.md §3.4, issue 18 item 4).
+
+Scene: the floor y = 0 (albedo ρ) seen straight down by a camera at rest at height 10 at
+time code 50 (lab time = time code, c = 1), lit by a point-like SphereLight (radius 1,
+treatAsPoint: a point of radiant intensity π I) whose translate is time-sampled from
+x0 = (-25, 3, 0) at 0 to (25, 3, 0) at 100: it moves uniformly at v = 0.5 c along x (USD
+interpolates linearly between the two samples). A floor pixel's hit event is
+(t_h, x_h) with t_h = 50 - s, s the camera ray's lookback. The light that reaches it left
+the lamp at t_e with t_h - t_e = |x_h - x0 - v t_e|: the quadratic
+
+    (v.v - 1) t_e^2 + 2 (t_h - d.v) t_e + (d.d - t_h^2) = 0,   d = x_h - x0,
+
+whose root with t_e <= t_h is the emission time (NumPy float64). The beauty is then
+ρ I cos θ / r^2 with r = |x_h - x_L(t_e)| and cos θ = (x_L - x_h)_y / r.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from analytic_scenes import pixel_directions
+
+import warp_st
+
+ALBEDO = np.array([0.8, 0.6, 0.4])
+INTENSITY = 30.0
+X0 = np.array([-25.0, 3.0, 0.0])
+V = np.array([0.5, 0.0, 0.0])
+FRAME = 50.0
+# Float32 shading of O(1) numbers (as tests/rendering/test_lambert_irradiance.py, 1e-5) plus the
+# kernel's float32 retarded time (t ~ 40 relative to the camera event: ~1e-6 of it): 1e-3, the
+# issue's target, has ample margin; the unretarded position is off by factors (asserted).
+RTOL = 1e-3
+
+HEADER = """#usda 1.0
+(
+    upAxis = "Y"
+    startTimeCode = 0
+    endTimeCode = 100
+)
+def Camera "Cam"
+{
+    float focalLength = 20
+    float horizontalAperture = 24
+    double3 xformOp:translate = (0, 10, 0)
+    float xformOp:rotateX = -90
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateX"]
+}
+def Mesh "Floor"
+{
+    point3f[] points = [(-40, 0, -40), (40, 0, -40), (40, 0, 40), (-40, 0, 40)]
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 3, 2, 1]
+    color3f[] primvars:displayColor = [(0.8, 0.6, 0.4)]
+}
+"""
+LAMP = f"""
+def SphereLight "Lamp"
+{{
+    float inputs:radius = 1
+    bool treatAsPoint = true
+    float inputs:intensity = {INTENSITY}
+    double3 xformOp:translate.timeSamples = {{ 0: (-25, 3, 0), 100: (25, 3, 0) }}
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}}
+"""
+# A cube at rest (edge 1) between the lamp's retarded positions and the floor.
+BLOCK_CENTRE = np.array([-3.0, 1.5, 0.0])
+BLOCK = """
+def Cube "Block"
+{
+    double size = 1
+    double3 xformOp:translate = (-3, 1.5, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+"""
+
+
+def _render(tmp_path, text, size, **options):
+    path = tmp_path / "lamp.usda"
+    path.write_text(text)
+    scene = warp_st.load(str(path))
+    img = warp_st.render(scene, width=size[0], height=size[1], frame=FRAME, **options)
+    cam = scene.camera_state(scene.default_camera, FRAME)
+    n = pixel_directions(cam, *size)
+    lookback = 10.0 / -n[..., 1]
+    hit = np.asarray(cam.position) + lookback[..., None] * n
+    return img, hit, FRAME - lookback
+
+
+def _retarded_point(hit, t_h, start):
+    """x(t_e) per pixel of the point moving as start + V t: the quadratic's root with t_e <= t_h (float64)."""
+    d = hit - start
+    a, b, c = V @ V - 1.0, 2.0 * (t_h - d @ V), (d * d).sum(-1) - t_h**2
+    root = np.sqrt(b * b - 4.0 * a * c)
+    r1, r2 = (-b + root) / (2.0 * a), (-b - root) / (2.0 * a)
+    t_e = np.where(r1 <= t_h, r1, r2)
+    assert np.allclose(np.linalg.norm(hit - start - t_e[..., None] * V, axis=-1), t_h - t_e)
+    return start + t_e[..., None] * V
+
+
+def _lambert(hit, lamp):
+    to = lamp - hit
+    r = np.linalg.norm(to, axis=-1)
+    return ALBEDO * INTENSITY * (to[..., 1] / r**3)[..., None]
+
+
+def test_moving_sphere_light_lights_from_its_retarded_position(tmp_path):
+    """Irradiance at every floor pixel is the closed form with the lamp at its retarded position;
+    the lamp where it is at the camera's time (x = 0) would be far off."""
+    img, hit, t_h = _render(tmp_path, HEADER + LAMP, (24, 18))
+    assert (img.object_id == 1).all()
+    want = _lambert(hit, _retarded_point(hit, t_h, X0))
+    np.testing.assert_allclose(img.rgba[..., :3], want, rtol=RTOL)
+    now = _lambert(hit, X0 + FRAME * V)
+    assert np.abs(now / want - 1.0).max() > 1.0, "the case must tell the retarded position from the current one"
+
+
+def test_moving_sphere_light_with_infinite_light_speed_is_where_it_is_at_the_hit_time(tmp_path):
+    """Infinite light speed: the hit events are at the camera's time and the lamp is lit from where
+    USD puts it then (x = 0), not from a retarded position."""
+    img, hit, _t_h = _render(tmp_path, HEADER + LAMP, (24, 18), light_speed="infinite")
+    want = _lambert(hit, np.broadcast_to(X0 + FRAME * V, hit.shape))
+    np.testing.assert_allclose(img.rgba[..., :3], want, rtol=RTOL)
+
+
+def _blocked(start, end, half):
+    """Does the segment start -> end meet the box |p - BLOCK_CENTRE| <= half (per pixel)?"""
+    direction = end - start
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (BLOCK_CENTRE - half - start) / direction, (BLOCK_CENTRE + half - start) / direction
+    t_in = np.max(np.minimum(t0, t1), axis=-1)
+    t_out = np.min(np.maximum(t0, t1), axis=-1)
+    return (t_out >= np.maximum(t_in, 0.0)) & (t_in <= 1.0)
+
+
+def test_shadow_of_a_cube_falls_where_the_retarded_lamp_puts_it(tmp_path):
+    """A cube at rest under the moving lamp: a floor pixel is dark exactly when the segment from its
+    hit to the lamp's retarded position crosses the cube (box grown / shrunk by 2e-3, far above
+    float32 rounding at these distances, decides the pixels that graze it), and lit by the closed
+    form otherwise. The shadow the lamp's current position would cast is elsewhere."""
+    img, hit, t_h = _render(tmp_path, HEADER + LAMP + BLOCK, (64, 48))
+    lamp = _retarded_point(hit, t_h, X0)
+    inner, outer = (_blocked(hit, lamp, 0.5 + m) for m in (-2e-3, 2e-3))
+    floor = img.object_id == 1
+    keep = floor & (inner == outer)
+    want = np.where(outer[..., None], 0.0, _lambert(hit, lamp))
+    np.testing.assert_allclose(img.rgba[keep][:, :3], want[keep], rtol=RTOL, atol=1e-7)
+    assert inner[floor].sum() > 50, "the retarded shadow must be in view"
+    now = _blocked(hit, np.broadcast_to(X0 + FRAME * V, hit.shape), 0.5)
+    assert (now & inner & floor).sum() < 0.1 * inner[floor].sum(), "the current lamp's shadow must fall elsewhere"
+
+
+def test_animated_distant_light_turns_with_the_hit_time(tmp_path):
+    """A DistantLight whose rotateX is sampled 0 -> -90 degrees over time codes 0..100 (USD: linear in
+    the angle): each floor pixel sees cos θ of the direction at its own hit time t_h (no
+    retardation), i.e. E cos(90° - 0.9° t_h) from a light pointing along (0, sin, cos)."""
+    sun = """
+def DistantLight "Sun"
+{
+    float inputs:angle = 0
+    float inputs:intensity = 3.14159265358979
+    float xformOp:rotateX.timeSamples = { 0: 0, 100: -90 }
+    uniform token[] xformOpOrder = ["xformOp:rotateX"]
+}
+"""
+    img, _hit, t_h = _render(tmp_path, HEADER + sun, (24, 18))
+    angle = np.radians(-0.9 * t_h)  # rotateX at t_h; the light's +Z is then (0, -sin a, cos a)
+    want = ALBEDO / math.pi * 3.14159265358979 * np.clip(-np.sin(angle), 0.0, None)[..., None]
+    # the probes follow USD's rotation within PROBE_TOLERANCE (1e-5) and the kernel normalises the
+    # interpolated direction: far inside 1e-3
+    np.testing.assert_allclose(img.rgba[..., :3], want, rtol=RTOL)
+    assert np.ptp(t_h) > 0.5, "the pixels' hit times must differ enough to show the turn"
+
+
+def test_moving_rect_light_samples_are_retarded_one_by_one(tmp_path):
+    """A 2 x 1 RectLight facing down at height 3 moving as the lamp: the beauty is ρ/π L times the
+    sum over its 4 x 4 Gauss-Legendre points of w cos cos' / d^2 with each point at its own
+    retarded position (the light's quadrature, docs/design/usdlux.md, on the moved points)."""
+    rect = """
+def RectLight "Panel"
+{
+    float inputs:intensity = 10
+    float inputs:width = 2
+    float inputs:height = 1
+    double3 xformOp:translate.timeSamples = { 0: (-25, 3, 0), 100: (25, 3, 0) }
+    float xformOp:rotateX = -90
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateX"]
+}
+"""
+    img, hit, t_h = _render(tmp_path, HEADER + rect, (24, 18))
+    x, gw = np.polynomial.legendre.leggauss(4)
+    total = np.zeros(hit.shape[:-1])
+    for a, wa in zip(x, gw):
+        for b, wb in zip(x, gw):
+            # rotateX -90 takes local x to x and local y to -z; the point's authored offset from the pivot:
+            offset = np.array([a * 1.0, 0.0, -b * 0.5])
+            p = _retarded_point(hit, t_h, X0 + offset) - hit
+            d = np.linalg.norm(p, axis=-1)
+            total += wa * wb / 4.0 * 2.0 * (p[..., 1] / d) ** 2 / d**2  # floor and light parallel
+    want = ALBEDO / math.pi * 10.0 * total[..., None]
+    np.testing.assert_allclose(img.rgba[..., :3], want, rtol=RTOL)
+
+
+@pytest.mark.parametrize("frame", [-30.0, 160.0])
+def test_lamp_is_held_outside_its_samples(tmp_path, frame):
+    """Before its first and after its last sample USD holds the lamp: it shines from x0 (or the last
+    sample) as a lamp at rest would."""
+    path = tmp_path / "lamp.usda"
+    path.write_text(HEADER + LAMP)
+    scene = warp_st.load(str(path))
+    img = warp_st.render(scene, width=12, height=9, frame=frame)
+    cam = scene.camera_state(scene.default_camera, frame)
+    n = pixel_directions(cam, 12, 9)
+    hit = np.asarray(cam.position) + (10.0 / -n[..., 1])[..., None] * n
+    held = X0 if frame < 0 else X0 + 100.0 * V
+    np.testing.assert_allclose(img.rgba[..., :3], _lambert(hit, np.broadcast_to(held, hit.shape)), rtol=RTOL)
