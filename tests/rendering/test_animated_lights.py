@@ -216,3 +216,55 @@ def test_lamp_is_held_outside_its_samples(tmp_path, frame):
     hit = np.asarray(cam.position) + (10.0 / -n[..., 1])[..., None] * n
     held = X0 if frame < 0 else X0 + 100.0 * V
     np.testing.assert_allclose(img.rgba[..., :3], _lambert(hit, np.broadcast_to(held, hit.shape)), rtol=RTOL)
+
+
+def test_moving_cube_out_of_view_shadows_under_a_turning_distant_light(tmp_path):
+    """A cube out of the camera's view (edge 1 at z = -5.5, height 1.5) moving at 0.5 c along x
+    (decoupled: it moves exactly as fourVelocity says) under a DistantLight whose rotateX is sampled
+    -140 -> -160 degrees over time codes 0..100: a floor pixel is dark exactly when the past null ray
+    from its hit towards the light's direction at its hit time meets the moving cube (the box grown /
+    shrunk by 2e-3 decides the grazing pixels). Only the cube's occluder windows
+    (spacetime/visibility.py, any direction for a turning light) bring it into the database."""
+    cube = """
+def Cube "Block" (
+    prepend apiSchemas = ["SpacetimeBodyAPI"]
+)
+{
+    double size = 1
+    custom double4 spacetime:fourVelocity = (1, 0.5, 0, 0)
+    custom bool spacetime:lorentzDecoupled = true
+    custom double spacetime:referenceTime = 40
+    double3 xformOp:translate = (0, 1.5, -5.5)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def DistantLight "Sun"
+{
+    float inputs:angle = 0
+    float inputs:intensity = 3.14159265358979
+    float xformOp:rotateX.timeSamples = { 0: -140, 100: -160 }
+    uniform token[] xformOpOrder = ["xformOp:rotateX"]
+}
+"""
+    img, hit, t_h = _render(tmp_path, HEADER + cube, (64, 48))
+    floor = img.object_id == 1
+    assert floor.all(), "the cube must be out of view"
+    angle = np.radians(-140.0 - 0.2 * t_h)
+    l = np.stack([np.zeros_like(angle), -np.sin(angle), np.cos(angle)], axis=-1)  # rotateX of +Z
+    v = np.array([0.5, 0.0, 0.0])
+    centre = np.array([0.0, 1.5, -5.5])
+    # in the cube's frame (Galilean) the shadow ray x_h + s l at t_h - s starts at x_h - v (t_h - 40)
+    # and runs along l + v; long enough to pass the cube (s <= 40)
+    start = hit - v * (t_h - 40.0)[..., None]
+    shadowed = []
+    for half in (0.5 - 2e-3, 0.5 + 2e-3):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d = l + v
+            t0, t1 = (centre - half - start) / d, (centre + half - start) / d
+        t_in, t_out = np.max(np.minimum(t0, t1), axis=-1), np.min(np.maximum(t0, t1), axis=-1)
+        shadowed.append((t_out >= np.maximum(t_in, 0.0)) & (t_in <= 40.0))
+    inner, outer = shadowed
+    keep = inner == outer
+    lit = ALBEDO / math.pi * 3.14159265358979 * l[..., 1:2]
+    want = np.where(outer[..., None], 0.0, lit)
+    np.testing.assert_allclose(img.rgba[keep][:, :3], want[keep], rtol=RTOL, atol=1e-7)
+    assert inner.sum() > 30 and (~outer).sum() > 30, "the case must show shadow and lit floor"
