@@ -268,3 +268,48 @@ def DistantLight "Sun"
     want = np.where(outer[..., None], 0.0, lit)
     np.testing.assert_allclose(img.rgba[keep][:, :3], want[keep], rtol=RTOL, atol=1e-7)
     assert inner.sum() > 30 and (~outer).sum() > 30, "the case must show shadow and lit floor"
+
+
+def test_tilting_rect_light_turns_its_points_and_normal(tmp_path):
+    """A 2 x 1 RectLight at (0, 3, 0) whose rotateX is sampled -120 -> -60 degrees over time codes
+    0..100 (USD: linear in the angle): each of its 4 x 4 quadrature points is where the tilt puts it
+    at its own retarded time (a fixed point t_e = t_h - |x_h - p(t_e)| in NumPy float64: the points
+    move at < 0.02 c, so the iteration contracts fast) and its emission normal (local -Z) turns with
+    it. Tolerance RTOL: the reader's probes follow USD's rotation within 1e-5."""
+    rect = """
+def RectLight "Panel"
+{
+    float inputs:intensity = 10
+    float inputs:width = 2
+    float inputs:height = 1
+    double3 xformOp:translate = (0, 3, 0)
+    float xformOp:rotateX.timeSamples = { 0: -120, 100: -60 }
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateX"]
+}
+"""
+    img, hit, t_h = _render(tmp_path, HEADER + rect, (24, 18))
+    centre = np.array([0.0, 3.0, 0.0])
+
+    def frame(t):
+        """(local x, local y, local +Z) in the lab at lab time t, per pixel."""
+        a = np.radians(-120.0 + 0.6 * t)
+        zero, one = np.zeros_like(a), np.ones_like(a)
+        return (np.stack([one, zero, zero], -1), np.stack([zero, np.cos(a), np.sin(a)], -1),
+                np.stack([zero, -np.sin(a), np.cos(a)], -1))
+
+    x, gw = np.polynomial.legendre.leggauss(4)
+    total = np.zeros(hit.shape[:-1])
+    for a, wa in zip(x, gw):
+        for b, wb in zip(x, gw):
+            t_e = t_h.copy()
+            for _ in range(60):
+                ux, uy, _z = frame(t_e)
+                p = centre + a * 1.0 * ux + b * 0.5 * uy
+                t_e = t_h - np.linalg.norm(hit - p, axis=-1)
+            back = frame(t_e)[2]
+            to = p - hit
+            d = np.linalg.norm(to, axis=-1)
+            cos_s, cos_e = to[..., 1] / d, np.einsum("...i,...i", back, to) / d
+            total += np.where((cos_s > 0) & (cos_e > 0), wa * wb / 4.0 * 2.0 * cos_s * cos_e / d**2, 0.0)
+    want = ALBEDO / math.pi * 10.0 * total[..., None]
+    np.testing.assert_allclose(img.rgba[..., :3], want, rtol=RTOL)
