@@ -106,10 +106,12 @@ def _lambert(hit, lamp):
     return ALBEDO * INTENSITY * (to[..., 1] / r**3)[..., None]
 
 
-def test_moving_sphere_light_lights_from_its_retarded_position(tmp_path):
-    """Irradiance at every floor pixel is the closed form with the lamp at its retarded position;
-    the lamp where it is at the camera's time (x = 0) would be far off."""
-    img, hit, t_h = _render(tmp_path, HEADER + LAMP, (24, 18))
+@pytest.mark.parametrize("options", [{}, {"precision": "float64"}, {"primitive": "prism"}])
+def test_moving_sphere_light_lights_from_its_retarded_position(tmp_path, options):
+    """Irradiance at every floor pixel is the closed form with the lamp at its retarded position
+    (float32 rigid, float64 prism and float32 prism kernels); the lamp where it is at the camera's
+    time (x = 0) would be far off."""
+    img, hit, t_h = _render(tmp_path, HEADER + LAMP, (24, 18), **options)
     assert (img.object_id == 1).all()
     want = _lambert(hit, _retarded_point(hit, t_h, X0))
     np.testing.assert_allclose(img.rgba[..., :3], want, rtol=RTOL)
