@@ -64,3 +64,33 @@ def test_a_light_animated_faster_than_light_warns_naming_its_xformop(tmp_path):
     assert scene.lights[0].motion is not None
     (hit,) = [m for m in messages if "moves at 3 c" in m]
     assert "/Lamp" in hit and "xformOp:translate" in hit
+
+
+def test_validate_reports_each_animated_light(tmp_path, capsys):
+    """`warp-st validate` lists an INFO line per animated light: its samples and speed (0.5 c: 50
+    stage units over 10 time codes), or a DistantLight's turn rate (2 degrees over 10), beside an
+    animated body's line."""
+    from warp_st.commands.cli import main
+
+    path, _scene, _ = _load(tmp_path, '''
+        def SphereLight "Lamp" {
+            double3 xformOp:translate.timeSamples = { 0: (-25, 3, 0), 10: (-20, 3, 0) }
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+        def DistantLight "Sun" {
+            float xformOp:rotateX.timeSamples = { 0: -140, 10: -142 }
+            uniform token[] xformOpOrder = ["xformOp:rotateX"]
+        }
+        def SphereLight "Still" {}
+        def Cube "Box" {
+            double3 xformOp:translate.timeSamples = { 0: (0, 0, 0), 10: (1, 0, 0) }
+            uniform token[] xformOpOrder = ["xformOp:translate"]
+        }
+    ''')
+    assert main(["validate", str(path)]) == 0
+    lines = [line for line in capsys.readouterr().out.splitlines() if "animated light" in line]
+    assert lines == [
+        f"INFO {path}:/Lamp: animated light: 2 time samples (0 to 10), speed 0.5 to 0.5 c "
+        "(each hit lit from its retarded position)",
+        f"INFO {path}:/Sun: animated light: 2 time samples (0 to 10), turning up to 0.2 degrees per time code "
+        "(direction at each hit's time)"]

@@ -15,7 +15,7 @@ import numpy as np
 from warp_st.core.scene import Light
 from warp_st.usd.animation import animated_op, sample_motion
 
-__all__ = ["light_in_motion"]
+__all__ = ["light_in_motion", "light_report"]
 
 
 def light_in_motion(where, prim, light: Light, samples: tuple[float, ...], notes) -> Light:
@@ -31,3 +31,26 @@ def light_in_motion(where, prim, light: Light, samples: tuple[float, ...], notes
                               "(>= the speed of light): each hit is lit from one of its emission events",
                    "Superluminal")
     return dataclasses.replace(light, motion=motion)
+
+
+def light_report(lights) -> list[tuple[str, str]]:
+    """(light prim path, one line) per animated light: its USD samples and its speed range
+    (a DistantLight: its largest turn rate)."""
+    lines = []
+    for light in lights:
+        m = light.motion
+        if m is None:
+            continue
+        samples = m.sample_times
+        text = f"animated light: {len(samples)} time samples ({samples[0]:g} to {samples[-1]:g}), "
+        if light.kind == "distant":
+            d = np.asarray(light.direction, dtype=np.float64) @ m.linear
+            d /= np.linalg.norm(d, axis=1, keepdims=True)
+            turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", d[:-1], d[1:]), -1.0, 1.0))) / np.diff(m.times)
+            text += f"turning up to {float(turn.max()):.4g} degrees per time code (direction at each hit's time)"
+        else:
+            speeds = np.linalg.norm(m.chord_velocities(), axis=1)
+            text += (f"speed {float(speeds.min()):.4g} to {float(speeds.max()):.4g} c "
+                     "(each hit lit from its retarded position)")
+        lines.append((light.prim_path, text))
+    return lines
