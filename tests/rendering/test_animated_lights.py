@@ -89,15 +89,15 @@ def _render(tmp_path, text, size, **options):
     return img, hit, FRAME - lookback
 
 
-def _retarded_point(hit, t_h, start):
-    """x(t_e) per pixel of the point moving as start + V t: the quadratic's root with t_e <= t_h (float64)."""
+def _retarded_point(hit, t_h, start, v=V):
+    """x(t_e) per pixel of the point moving as start + v t: the quadratic's root with t_e <= t_h (float64)."""
     d = hit - start
-    a, b, c = V @ V - 1.0, 2.0 * (t_h - d @ V), (d * d).sum(-1) - t_h**2
+    a, b, c = v @ v - 1.0, 2.0 * (t_h - d @ v), (d * d).sum(-1) - t_h**2
     root = np.sqrt(b * b - 4.0 * a * c)
     r1, r2 = (-b + root) / (2.0 * a), (-b - root) / (2.0 * a)
     t_e = np.where(r1 <= t_h, r1, r2)
-    assert np.allclose(np.linalg.norm(hit - start - t_e[..., None] * V, axis=-1), t_h - t_e)
-    return start + t_e[..., None] * V
+    assert np.allclose(np.linalg.norm(hit - start - t_e[..., None] * v, axis=-1), t_h - t_e)
+    return start + t_e[..., None] * v
 
 
 def _lambert(hit, lamp):
@@ -315,3 +315,27 @@ def RectLight "Panel"
             total += np.where((cos_s > 0) & (cos_e > 0), wa * wb / 4.0 * 2.0 * cos_s * cos_e / d**2, 0.0)
     want = ALBEDO / math.pi * 10.0 * total[..., None]
     np.testing.assert_allclose(img.rgba[..., :3], want, rtol=RTOL)
+
+
+def test_passing_lamp_example_lights_its_floor_from_the_retarded_lamp():
+    """examples/animation/passing_lamp.usda, frame 68: the SphereLight (radius 0.15, intensity 400) moves
+    from (-40, 2.5, 0) at 0 to (40, 2.5, 0) at 100 (0.8 c). Floor pixels in front of the posts (hit
+    z > -1.3: the segment to the lamp at z = 0 never reaches the posts at z <= -1.35) show
+    ρ I r² cos θ / d² from the lamp's retarded centre."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "animation" / "passing_lamp.usda"
+    scene = warp_st.load(str(path))
+    size, frame = (64, 36), 68.0
+    img = warp_st.render(scene, width=size[0], height=size[1], frame=frame)
+    cam = scene.camera_state(None, frame)
+    n = pixel_directions(cam, *size)
+    s = -np.asarray(cam.position)[1] / n[..., 1]
+    hit = np.asarray(cam.position) + s[..., None] * n
+    floor = (img.object_id == scene.body_paths().index("/Floor") + 1) & (hit[..., 2] > -1.3)
+    assert floor.sum() > 500
+    lamp = _retarded_point(hit, frame - s, np.array([-40.0, 2.5, 0.0]), np.array([0.8, 0.0, 0.0]))
+    to = lamp - hit
+    d = np.linalg.norm(to, axis=-1)
+    want = 0.6 * 400.0 * 0.15**2 * to[..., 1] / d**3
+    np.testing.assert_allclose(img.rgba[..., 0][floor], want[floor], rtol=RTOL)
