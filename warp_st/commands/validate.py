@@ -88,16 +88,19 @@ def run(args) -> int:
 def _animation_problems(scene, label: str) -> list:
     """INFO per animated body (docs/spec.md §2.1): samples, speed range and the motion
     segments it renders as through the scene's camera at its resolution, over the
-    stage's time codes (at most 101 frames of them, evenly spread)."""
+    stage's time codes (at most 101 frames of them, evenly spread); and per animated
+    light (§3.4): samples and speed range."""
     import numpy as np
 
     from warp_st.core.conventions import DEFAULT_RESOLUTION
     from warp_st.core.scene import SceneError
     from warp_st.spacetime.animation import animation_report
+    from warp_st.usd.light_motion import light_report
     from warp_st.usd.validators import Problem
 
+    lights = [Problem("info", label, path, None, text, "animation") for path, text in light_report(scene.lights)]
     if not any(b.motion is not None for b in scene.bodies):
-        return []
+        return lights
     width, height = scene.settings.resolution or DEFAULT_RESOLUTION
     start, end = scene.frame_range or (0.0, 0.0)
     try:
@@ -105,4 +108,4 @@ def _animation_problems(scene, label: str) -> list:
     except SceneError:  # listed as the camera's own error
         cameras = []
     return [Problem("info", label, path, None, text, "animation")
-            for path, text in animation_report(scene, cameras, width=width, height=height)]
+            for path, text in animation_report(scene, cameras, width=width, height=height)] + lights

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from warp_st.core.conventions import LightSpeed, Precision
+from warp_st.core.motion import BodyMotion
 
 __all__ = [
     "SceneError",
@@ -219,6 +220,10 @@ class Light:
     axes: "rect"/"disk": the light's half-extent vectors along its local X and Y in
         the lab (a rect spans position + a u + b v for a, b in [-1, 1]; a disk has
         a^2 + b^2 <= 1).
+    motion: the light's animated worldline (docs/spec.md §3.4, time-sampled xformOps), or
+        None (at rest). ``position``, ``direction`` and ``axes`` are the light at the
+        motion's static pivot ``motion.static_pivot`` (= ``position``); a light point p
+        is at o(t) + (p - position) @ L(t), a direction d along d @ L(t).
     """
 
     kind: str
@@ -228,12 +233,20 @@ class Light:
     prim_path: str = ""
     radius: float = 0.0
     axes: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    motion: BodyMotion | None = None
 
     @property
     def extent(self) -> float:
-        """Radius of a ball about ``position`` that holds every point a shadow ray ends at."""
+        """Radius of a ball about ``position`` that holds every point a shadow ray ends at
+        (an animated light's at any time: its pivot's largest excursion added, and its own
+        extent under the largest stretch of L(t))."""
         u, v = (float(np.linalg.norm(a)) for a in self.axes)
-        return {"sphere": self.radius, "rect": u + v, "disk": max(u, v)}.get(self.kind, 0.0)
+        own = {"sphere": self.radius, "rect": u + v, "disk": max(u, v)}.get(self.kind, 0.0)
+        if self.motion is None or self.kind == "distant":
+            return own
+        m = self.motion
+        away = np.linalg.norm(m.pivot - np.asarray(self.position, dtype=np.float64), axis=1)
+        return float((away + own * np.linalg.norm(m.linear, ord=2, axis=(1, 2))).max())
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,10 +1,12 @@
 """Surface response at a hit event: normals, Lambert with null-ray shadows, 4D mirror reflection.
 
-Pure Warp device code. Lights are at rest in the lab (docs/spec.md §3).
+Pure Warp device code. Lights are at rest in the lab (docs/spec.md §3) unless animated: then
+each hit is lit from the light's emission event on its worldline (``light_track``, §3.4).
 """
 import warp as wp
 
 from warp_st.kernels.layout import ANALYTIC_TEST
+from warp_st.kernels.light_track import make_light_track
 from warp_st.kernels.sky import make_sky
 from warp_st.kernels.texture import make_textures
 
@@ -18,6 +20,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
     FAR = 1.0e30
     Textures, _inputs = make_textures(scalar)
     Sky, _radiance, _irradiance = make_sky(scalar)
+    Track, light_linear_at, emission_event = make_light_track(scalar)
 
     @wp.struct
     class Shading:
@@ -44,6 +47,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         light_samples: wp.array(dtype=wp.int32)
         sample_pos: wp.array(dtype=vec3)
         sample_weight: wp.array(dtype=scalar)  # area weights (sum: the light's area)
+        track: Track  # animated lights' worldlines (kernels/light_track.py)
         light_count: int
         background: vec3
         sky: Sky  # a DomeLight (kernels/sky.py); sky.present 0: the background is the sky
@@ -119,17 +123,23 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
     def area_light(geo: Geometry, shd: Shading, finite: int, event: vec4, x: vec3, normal: vec3, li: int,
                    s_min: scalar, tri: int, body: int, skip_dist: scalar) -> scalar:
         """sum_i w_i cos cos' / d^2 over the light's unblocked samples (warp_st.core.light_samples)."""
-        back = shd.light_dir[li]
+        moving = shd.track.count[li] > 0
         total = scalar(0.0)
         first = shd.light_first[li]
         for j in range(first, first + shd.light_samples[li]):
-            to_p = shd.sample_pos[j] - x
+            back = shd.light_dir[li]
+            p = shd.sample_pos[j]
+            if moving:  # the sample's retarded position, the light's normal turned with it
+                e = emission_event(shd.track, li, p, shd.light_pos[li], event, finite)
+                p = vec3(e[1], e[2], e[3])
+                back = wp.normalize(light_linear_at(shd.track, li, e[0]) * back)
+            to_p = p - x
             d = wp.length(to_p)
             l = to_p / d
             cos_s = wp.dot(normal, l)
             cos_e = wp.dot(back, l)  # the light emits along -back: towards x when back.l > 0
             if cos_s > scalar(0.0) and cos_e > scalar(0.0):
-                vis = unblocked(geo, finite, event, x, shd.sample_pos[j], s_min, tri, body, skip_dist)
+                vis = unblocked(geo, finite, event, x, p, s_min, tri, body, skip_dist)
                 total += vis * shd.sample_weight[j] * cos_s * cos_e / (d * d)
         return total
 
@@ -162,12 +172,19 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
                 color = color + wp.cw_mul(diffuse, shd.light_radiance[li]) * area
             else:
                 l = shd.light_dir[li]
+                pos = shd.light_pos[li]
+                if shd.track.count[li] > 0:
+                    if kind == 1:  # a distant light's direction at the hit time (no retardation)
+                        l = wp.normalize(light_linear_at(shd.track, li, event[0]) * l)
+                    else:  # the sphere's centre at its retarded time
+                        e = emission_event(shd.track, li, pos, pos, event, finite)
+                        pos = vec3(e[1], e[2], e[3])
                 dist = scalar(FAR)
                 atten = scalar(1.0)
                 radius = scalar(0.0)
                 centre_dist = scalar(0.0)
                 if kind == 0:
-                    to_light = shd.light_pos[li] - x
+                    to_light = pos - x
                     dist = wp.length(to_light)
                     centre_dist = dist
                     l = to_light / dist
@@ -178,7 +195,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
                 if cos_l > scalar(0.0) and centre_dist >= radius:
                     vis = scalar(0.0)
                     if radius > scalar(0.0):  # a sphere: seen from outside, shadows from its silhouette
-                        vis = sphere_visibility(geo, finite, event, x, shd.light_pos[li], radius, l, centre_dist,
+                        vis = sphere_visibility(geo, finite, event, x, pos, radius, l, centre_dist,
                                                 s_min, tri, body, skip_dist)
                     else:
                         blocker, _bs, _bl, _bv, _bo = trace(geo, event, l, finite, s_min, dist, tri, body, skip_dist, 1)

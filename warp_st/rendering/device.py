@@ -18,6 +18,7 @@ from warp_st.core.doppler_colour import cached_doppler_table
 from warp_st.core.light_samples import area_samples
 from warp_st.core.scene import Light
 from warp_st.kernels import Kernels
+from warp_st.rendering.device_lights import light_track
 from warp_st.rendering.device_textures import sky_struct, tet_corners, texture_tables
 from warp_st.spacetime.extrude import SpacetimeMesh
 
@@ -181,6 +182,7 @@ def make_shading(
     s.light_first = wp.array((1 + np.cumsum(counts) - counts).astype(np.int32), dtype=wp.int32, device=_DEVICE)
     s.sample_pos = wp.array(points.astype(ns), dtype=k.vec3, device=_DEVICE)
     s.sample_weight = wp.array(weights.astype(ns), dtype=k.scalar, device=_DEVICE)
+    s.track = light_track(k, lights, origin)
     s.light_count = len(lights)
     s.background = k.vec3(*[float(x) for x in background])
     s.sky = sky_struct(k, dome)

@@ -416,6 +416,15 @@ def _occluder_windows(scene, body, m0, rho, sources, infinite):
     t_ref = body.reference_time
     los, his = [], []
     for light in scene.lights:
+        if light.kind == "distant" and light.motion is not None:
+            # an animated direction (docs/spec.md §3.4): any unit l. A shadow ray back from t_h
+            # meets the occluder at t only if t_h - t <= D + |v| |t - t_ref|, D = |C - m0| + R + rho
+            speed = float(np.linalg.norm(v))
+            d = np.linalg.norm(centre - m0, axis=1) + radius + rho
+            lo = np.minimum((t_lo - d - speed * t_ref) / (1.0 - speed), (t_lo - d + speed * t_ref) / (1.0 + speed))
+            los.append(lo - 1e-12 * (1.0 + np.abs(lo)))
+            his.append(t_hi + rho)
+            continue
         if light.kind == "distant":
             # phase t + x(t).l = k is linear in t: t (1 + v.l) = k - m0.l + (v.l) t_ref.
             l = np.asarray(light.direction, dtype=np.float64)

@@ -40,7 +40,15 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdSkel
 from warp_st.core.conventions import DEFAULT_RESOLUTION, Precision
 from warp_st.core.light_speed import LightSpeedSetting, parse_light_speed
 from warp_st.core.limits import MAX_BOUNCES, MAX_PIXELS, MAX_SAMPLES
-from warp_st.core.scene import DEFAULT_CAMERA, Body, Light, RenderSettings, Scene, SceneError, Surface
+from warp_st.core.scene import (
+    DEFAULT_CAMERA,
+    Body,
+    Light,
+    RenderSettings,
+    Scene,
+    SceneError,
+    Surface,
+)
 from warp_st.usd import attributes as A
 from warp_st.usd.animation import animated_op, sample_motion, xform_sample_times
 from warp_st.usd.attributes import (
@@ -51,11 +59,28 @@ from warp_st.usd.attributes import (
     static_time,
 )
 from warp_st.usd.camera import CameraEvaluator, frame_bounds
-from warp_st.usd.deform import SkinnedStage, is_skinned, points_sample_times, posed_points, sample_surface
-from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
+from warp_st.usd.deform import (
+    SkinnedStage,
+    is_skinned,
+    points_sample_times,
+    posed_points,
+    sample_surface,
+)
+from warp_st.usd.diagnostics import (
+    Notes,
+    check_prim,
+    composition,
+    samples_listable,
+    unknown_type,
+)
 from warp_st.usd.dome import read_dome
 from warp_st.usd.geometry import GprimReader, is_hidden, world_transform
-from warp_st.usd.light_speed import SCHEMA_LIGHT_SPEED, settings_and_schema_use, stage_light_speed
+from warp_st.usd.light_motion import light_in_motion
+from warp_st.usd.light_speed import (
+    SCHEMA_LIGHT_SPEED,
+    settings_and_schema_use,
+    stage_light_speed,
+)
 from warp_st.usd.lights import SUPPORTED, read_light
 from warp_st.usd.products import read_products
 from warp_st.usd.stage import open_stage, tf_message
@@ -359,11 +384,12 @@ class _StageReader:
             self.gprims.check(prim)
             self.domes.append(prim)
             return
+        samples = self._animation_samples(prim) if str(prim.GetTypeName()) in SUPPORTED else ()
         if str(prim.GetTypeName()) in SUPPORTED:
-            self.gprims.check(prim)
+            self.gprims.check(prim)  # after the samples: an animated light's xformOp samples are honoured
         light = read_light(self.where, prim, self._world(prim), self.notes)
         if light is not None:
-            self.lights.append(light)
+            self.lights.append(light_in_motion(self.where, prim, light, samples, self.notes))
 
     # -- render settings ------------------------------------------------------------
     def _light_speed(self, requested: LightSpeedSetting | None) -> tuple[float, str]:
