@@ -106,6 +106,11 @@ def test_a_coupled_body_whose_points_reach_c_is_bad_input(tmp_path):
     # just below c it loads, decoupled it loads (superluminal points are allowed there)
     assert not warp_st.load(write(tmp_path, "ok.usda", _spinning_sphere(False, rim=0.95))).bodies[0].decoupled
     assert warp_st.load(write(tmp_path, "dec.usda", _spinning_sphere(True, rim=1.05))).bodies[0].decoupled
+    # a gprim without the schema (a body of its own) turns decoupled with a warning
+    with pytest.warns(UserWarning, match=r"/Spinner: xformOp:rotateY: a point of the animated body of "
+                                         r"/Spinner/Ball moves at 1\.0[45]\d* c .*rendered Lorentz-decoupled"):
+        plain = warp_st.load(write(tmp_path, "plain.usda", _spinning_sphere(False, rim=1.05, api=False)))
+    assert plain.bodies[0].decoupled
 
 
 #: The plate's turn rate (rad per time) and half width: its edges move at 0.3c along its normal.
