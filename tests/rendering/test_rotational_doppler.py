@@ -39,7 +39,10 @@ RADIUS, RIM = 2.0, 0.6
 def _spinning_sphere(decoupled: bool, rim: float = RIM, api: bool = True) -> str:
     coupling = "custom bool spacetime:lorentzDecoupled = true" if decoupled else ""
     schema = ' (prepend apiSchemas = ["SpacetimeBodyAPI"])' if api else ""
-    return HEADER + f'''def Xform "Spinner"{schema}
+    # without the body's schema the camera's spacetime: attribute keeps c = 1 unit per time code
+    header = HEADER if api else HEADER.replace("float focalLength = 24", "float focalLength = 24\n    "
+                                                                           'custom token spacetime:lightSpeed = "finite"')
+    return header + f'''def Xform "Spinner"{schema}
 {{
     {coupling}
     double xformOp:rotateY.timeSamples = {{ 0: 0, 100: {orbit_degrees(rim, RADIUS, 100.0)!r} }}
