@@ -13,6 +13,15 @@ from warp_st.output import exr
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def run(capsys, *argv):
+    """``warp-st *argv`` in this process: (exit code, stdout, stderr)."""
+    from warp_st.commands.cli import main
+
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
 def moving_body_stage(body: str, *, end_time: int, extra: str = "", vertical_aperture: float | None = None) -> str:
     """A small stage: a camera at (0, 0, 10) looking down -Z, the prim /World/Mover moving at
     0.5c along +x (SpacetimeBodyAPI) holding the gprim text ``body``, a distant light of

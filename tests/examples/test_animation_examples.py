@@ -90,3 +90,22 @@ def test_spinning_rod_is_seen_and_its_pivot_rests():
     image = warp_st.render(scene, frame=50.0, width=W, height=H)
     mine = image.object_id == scene.bodies.index(rod) + 1
     assert mine.sum() > 20
+
+
+def test_waving_flag_is_its_script_and_waves():
+    """examples/animation/waving_flag.usda is what waving_flag.py writes; its flag deforms
+    (points samples every 2 time codes), is seen at frame 32 and moves between frames 32
+    and 34 (the banner at 0.8c and the wave)."""
+    import runpy
+
+    script = runpy.run_path(str(EXAMPLES / "waving_flag.py"))
+    assert (EXAMPLES / "waving_flag.usda").read_text() == script["stage_text"]()
+    scene = warp_st.load(str(EXAMPLES / "waving_flag.usda"))
+    (banner,) = [b for b in scene.bodies if b.prim_path == "/Banner"]
+    flag = [s for s in banner.surfaces if s.samples is not None]
+    assert [s.prim_path for s in flag] == ["/Banner/Flag"] and banner.decoupled
+    renderer = Renderer(scene, frames=[32.0, 34.0], width=W, height=H)
+    a, b = renderer.render(32.0), renderer.render(34.0)
+    mine = scene.bodies.index(banner) + 1
+    assert (a.object_id == mine).sum() > 100
+    assert ((a.object_id == mine) != (b.object_id == mine)).sum() > 20

@@ -309,7 +309,9 @@ def Mesh "BareQuad" (prepend apiSchemas = ["MaterialBindingAPI"])
 
 
 def other_shaders() -> Stage:
-    """A MaterialX-only network (outputs:mtlx:surface) and a universal surface of another shader."""
+    """A MaterialX network (outputs:mtlx:surface, read since issue 16's MaterialX item) with
+    an input it does not honour, another render context's surface only, and a universal
+    surface of another shader."""
     looks = '''
     def Material "Metal"
     {
@@ -317,13 +319,26 @@ def other_shaders() -> Stage:
         def Shader "Std"
         {
             uniform token info:id = "ND_standard_surface_surfaceshader"
+            float inputs:metalness = 1
+            float inputs:specular_roughness = 0.05
+            token outputs:out
+        }
+    }
+    def Material "Ri"
+    {
+        token outputs:ri:surface.connect = </Looks/Ri/Disney.outputs:out>
+        def Shader "Disney"
+        {
+            uniform token info:id = "PxrDisneyBsdf"
             token outputs:out
         }
     }''' + _material("Pxr", "", shader_id="PxrSurface")
-    return Stage("shaders.usda", {"shaders.usda": _stage(f'def Scope "Looks"\n{{{looks}\n}}\n' + _bound_quads("Metal", "Pxr"))},
-                 [("/Looks/Metal", "outputs:mtlx:surface", "only a UsdPreviewSurface on outputs:surface is supported "
-                                                          "(not this render context's shading, e.g. MaterialX); "
-                                                          "displayColor is used"),
+    return Stage("shaders.usda", {"shaders.usda": _stage(f'def Scope "Looks"\n{{{looks}\n}}\n'
+                                                         + _bound_quads("Metal", "Ri", "Pxr"))},
+                 [("/Looks/Metal/Std", "inputs:specular_roughness", LAMBERT),
+                  ("/Looks/Ri", "outputs:ri:surface", "only a UsdPreviewSurface on outputs:surface or a MaterialX "
+                                                      "surface on outputs:mtlx:surface is supported (not this render "
+                                                      "context's shading); displayColor is used"),
                   ("/Looks/Pxr", "outputs:surface", "its shader /Looks/Pxr/Surface is 'PxrSurface', not "
                                                     "UsdPreviewSurface, which is the only one supported; displayColor "
                                                     "is used")])
@@ -331,8 +346,8 @@ def other_shaders() -> Stage:
 
 def animated() -> Stage:
     """A turntable (time-sampled rotation on a parent Xform: honoured since issue 18, not
-    warned), a deforming mesh on it whose points are only time-sampled (read at the start
-    time code), a pulsing sphere radius, a body's
+    warned), a deforming mesh on it whose points are time-sampled (honoured since issue 18:
+    an info line, not a warning), a pulsing sphere radius, a body's
     time-sampled spacetime attribute beside its default, and instancer velocities."""
     return Stage("anim.usda", {"anim.usda": _stage('''
 def Xform "Turntable"
@@ -375,8 +390,7 @@ def PointInstancer "Swarm"
     }
 }
 ''')},
-        [("/Turntable/Cloth", "points", f"has 2 time samples (1 to 12); {ANIMATED}"),
-         ("/Pulse", "radius", f"has 2 time samples (1 to 24); {ANIMATED}"),
+        [("/Pulse", "radius", f"has 2 time samples (1 to 24); {ANIMATED}"),
          ("/Probe", "spacetime:referenceTime", "has 2 time samples (1 to 2); USD animation is not rendered yet: "
                                                "every frame uses its default value"),
          ("/Swarm", "velocities", "motion from velocities is not rendered; ignored")])
@@ -486,7 +500,8 @@ def {kind} "{kind}{axis}"
 
 
 def skinned() -> Stage:
-    """A skinned character (UsdSkel): rendered unskinned, with one warning."""
+    """A mesh bound to a skeleton without joint indices (UsdSkel does not skin it): rendered
+    as authored, with one warning."""
     return Stage("skel.usda", {"skel.usda": _stage(f'''
 def SkelRoot "Character"
 {{
@@ -500,7 +515,8 @@ def SkelRoot "Character"
         rel skel:skeleton = </Character/Rig>
     }}
 }}
-''')}, [("/Character", None, "UsdSkel skinning is not applied: the meshes below render as authored (their bind pose)")])
+''')}, [("/Character/Skin", "primvars:skel:jointIndices", "the mesh is bound to a skeleton but has no joint indices: "
+                                                    "UsdSkel does not skin it; rendered as authored")])
 
 
 def camera_and_settings() -> Stage:

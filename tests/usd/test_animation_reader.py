@@ -73,8 +73,12 @@ def test_coupled_body_at_light_speed_is_exit_2(tmp_path, capsys):
 def test_decoupled_or_schema_less_body_at_light_speed_renders(tmp_path):
     decoupled = warp_st.load(write(tmp_path, "d.usda", _body(FAST, "custom bool spacetime:lorentzDecoupled = true")))
     assert decoupled.bodies[0].decoupled and not decoupled.diagnostics
+    # a plain stage has the physical speed of light (docs/spec.md §1.1): 1.2 units per time
+    # code is far below it; at one unit per time code it is 1.2 c
+    physical = warp_st.load(write(tmp_path, "p.usda", _body(FAST, api=False)))
+    assert not physical.bodies[0].decoupled and physical.bodies[0].motion is not None
     with pytest.warns(UserWarning, match="moves at 1.2 c between time codes 10 and 20.*rendered Lorentz-decoupled"):
-        plain = warp_st.load(write(tmp_path, "p.usda", _body(FAST, api=False)))
+        plain = warp_st.load(tmp_path / "p.usda", light_speed="1units/timecode")
     assert plain.bodies[0].decoupled and plain.bodies[0].motion is not None
 
 
@@ -99,7 +103,8 @@ def test_four_velocity_composes_with_the_animation(tmp_path):
 
 def test_honoured_samples_are_not_warned_the_rest_still_is(tmp_path):
     """The body's and its ancestors' xformOps are honoured (no "TimeSampled" warning); a
-    time-sampled xformOp below the body's prim and time-sampled points still warn."""
+    time-sampled xformOp below the body's prim and time-sampled normals still warn (time-sampled
+    points are honoured: tests/usd/test_deform_reader.py)."""
     text = HEADER + '''def Xform "Carrier"
 {
     double3 xformOp:translate.timeSamples = { 0: (0, 0, 0), 10: (1, 0, 0) }
@@ -114,7 +119,8 @@ def test_honoured_samples_are_not_warned_the_rest_still_is(tmp_path):
             uniform token[] xformOpOrder = ["xformOp:rotateX"]
             def Mesh "Gun"
             {
-                point3f[] points.timeSamples = { 0: [(0, 0, 0), (1, 0, 0), (0, 1, 0)], 5: [(0, 0, 0), (2, 0, 0), (0, 1, 0)] }
+                point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+                normal3f[] normals.timeSamples = { 0: [(0, 0, 1), (0, 0, 1), (0, 0, 1)], 5: [(0, 1, 0), (0, 1, 0), (0, 1, 0)] }
                 int[] faceVertexCounts = [3]
                 int[] faceVertexIndices = [0, 1, 2]
             }
@@ -125,7 +131,7 @@ def test_honoured_samples_are_not_warned_the_rest_still_is(tmp_path):
     with pytest.warns(UserWarning):
         scene = warp_st.load(write(tmp_path, "w.usda", text))
     sampled = {(d.prim, d.attribute) for d in scene.diagnostics if d.code == "TimeSampled"}
-    assert sampled == {("/Carrier/Ship/Turret", "xformOp:rotateX"), ("/Carrier/Ship/Turret/Gun", "points")}
+    assert sampled == {("/Carrier/Ship/Turret", "xformOp:rotateX"), ("/Carrier/Ship/Turret/Gun", "normals")}
     assert scene.bodies[0].motion is not None and scene.bodies[0].motion.sample_times == (0.0, 10.0)
 
 
@@ -144,7 +150,8 @@ def Cube "C"
 {
 }
 '''
-    scene = warp_st.load(write(tmp_path, "cam.usda", text))
+    assert np.linalg.norm(warp_st.load(write(tmp_path, "cam.usda", text)).camera_state(None, 3.0).velocity) < 1e-8
+    scene = warp_st.load(tmp_path / "cam.usda", light_speed="1u/tc")  # (the physical default: 2e-9 c)
     with pytest.raises(SceneError, match=r"/Cam: xformOpOrder: the animated camera moves at 2 c at time code 3"):
         scene.camera_state(None, 3.0)
     assert np.allclose(scene.camera_state(None, 10.0).velocity, 0.0)  # held after the last sample

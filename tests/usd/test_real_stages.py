@@ -84,15 +84,22 @@ def test_corpus_stage_renders_with_exactly_its_warnings(tmp_path, capsys, name):
     lines = vout.splitlines()
     listed = sorted(ln for ln in lines if ln.startswith("WARNING "))
     assert listed == sorted(f"WARNING {location(path, *w[:2])}: {w[2]}" for w in stage.warnings)
-    animated = [ln for ln in lines if ln.startswith("INFO ") and ": animated: " in ln]  # docs/spec.md §2.1
-    assert len(animated) == (name == "animated")  # the turntable's Cloth
-    info = [ln for ln in lines if ln.startswith("INFO ") and ln not in animated]
+    animated = [ln for ln in lines if ln.startswith("INFO ") and (": animated: " in ln or ": deforming: " in ln)]
+    assert len(animated) == (name == "animated")  # the turntable's Cloth (docs/spec.md §2.1, §2.2)
+    # docs/spec.md §1.1: a stage without our schemas has the physical speed of light (USD's
+    # fallback units, asserted above: 299792458 m/s / 0.01 m / 24 time codes per second)
+    speed = [ln for ln in lines if ln.startswith(f"INFO {path}: light speed ")]
+    uses_schema = "SpacetimeBodyAPI" in path.read_text()
+    assert speed == ([] if uses_schema else [
+        f"INFO {path}: light speed 1.24913524e+09 stage units per time code: the physical speed of light, "
+        "299792458 m/s at metersPerUnit 0.01 and 24 time codes per second"])
+    info = [ln for ln in lines if ln.startswith("INFO ") and ln not in animated and ln not in speed]
     if stage.default_camera:
         assert len(info) == 1 and info[0].startswith(f"INFO {path}: the stage has no camera (UsdGeom.Camera): it "
                                                      "renders through the default camera, at rest at (")
     else:
         assert info == []
-    assert len(listed) + len(info) + len(animated) + 1 == len(lines)  # and the summary line
+    assert len(listed) + len(info) + len(animated) + len(speed) + 1 == len(lines)  # and the summary line
 
 
 def test_nothing_to_render(tmp_path, capsys):
@@ -105,7 +112,9 @@ def test_nothing_to_render(tmp_path, capsys):
     assert code == 2 and len(lines) == 1 and lines[0].startswith(f"warp-st: error: {path}: nothing to render"), err
     assert not list(tmp_path.glob("*.exr"))
     code, out, _ = run(capsys, "validate", path)
-    assert code == 0 and out.splitlines()[0].startswith(f"WARNING {path}: the stage has no camera and no supported")
+    assert code == 0 and [ln for ln in out.splitlines() if ln.startswith("WARNING")] == [
+        f"WARNING {path}: the stage has no camera and no supported visible geometry: there is nothing to render "
+        "(as a layer to reference it is fine)"]
 
 
 def test_camera_option_picks_an_authored_camera(tmp_path, capsys):
@@ -168,7 +177,7 @@ def test_default_camera_frames_the_bounds(tmp_path, name, view):
     lo, hi = usd_bounds(path)
     scene = load_quietly(path)
     cam = scene.camera_state(None, 7.5)
-    assert cam.prim_path == "default" and cam.time == 7.5 and not np.asarray(cam.velocity).any()
+    assert cam.prim_path == "default" and cam.time == 7.5 * scene.light_speed and not np.asarray(cam.velocity).any()
     np.testing.assert_allclose(-cam.rotation[:, 2], view, atol=1e-12)
     to_centre = 0.5 * (lo + hi) - cam.position
     np.testing.assert_allclose(to_centre / np.linalg.norm(to_centre), view, atol=1e-6)
@@ -335,7 +344,8 @@ def test_time_samples_under_zero_time_codes_per_second(tmp_path):
     path.write_text('#usda 1.0\n(\n    timeCodesPerSecond = 0\n    subLayers = [@./anim.usda@]\n)\n')
     proc = subprocess.run([sys.executable, "-c", LISTING, str(path)], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == ("/X: xformOp:translate: has time samples; USD animation is not rendered yet: "
+    assert proc.stdout.strip() == ("timeCodesPerSecond: is 0, not positive: the light speed takes USD's fallback, "
+                                   "24|/X: xformOp:translate: has time samples; USD animation is not rendered yet: "
                                    "every frame uses its value at time code 0")
 
 

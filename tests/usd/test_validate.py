@@ -297,7 +297,8 @@ def test_reader_failure_the_validators_miss_is_still_an_error(tmp_path, capsys, 
     monkeypatch.setattr(reader, "load_scene", failing)
     monkeypatch.chdir(tmp_path)
     code, out, _ = run(capsys, "validate", path.name)
-    assert code == 2 and out.splitlines()[0] == "ERROR ok.usda:/Box.size: a rule only the reader knows"
+    errors = [ln for ln in out.splitlines() if ln.startswith("ERROR")]
+    assert code == 2 and errors == ["ERROR ok.usda:/Box.size: a rule only the reader knows"]
 
 
 def test_json_output(tmp_path, capsys):

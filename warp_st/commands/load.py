@@ -115,7 +115,7 @@ def _probe_in_child(scene_path: Path, no_references: bool, budget: int | None) -
                          "is corrupt")
 
 
-def load(scene_path: Path, no_references: bool, max_memory: int | None = None):
+def load(scene_path: Path, no_references: bool, max_memory: int | None = None, light_speed=None):
     """warp_st.load with its diagnostics held back (see held_diagnostics) and its
     memory capped (see _address_space_cap); stages with binary layers are first read
     in a child process (see _probe_in_child)."""
@@ -130,10 +130,10 @@ def load(scene_path: Path, no_references: bool, max_memory: int | None = None):
     budget = max(filter(None, (max_memory, default_max_memory())), default=None)
     with held_diagnostics(), _address_space_cap(budget):
         try:
-            scene = warp_st.load(str(scene_path), no_references=no_references)
+            scene = warp_st.load(str(scene_path), no_references=no_references, light_speed=light_speed)
         except MemoryError:
             raise SceneError(f"{scene_path}: reading it needs more memory than the limit "
                              "(--max-memory); the file may be corrupt") from None
-        if any(d.code == "NothingToRender" for d in scene.diagnostics):  # one error line, not a warning too
+        if any(d.code == "NothingToRender" for d in getattr(scene, "diagnostics", ())):  # one error line only
             raise SceneError(f"{scene_path}: {NOTHING_TO_RENDER}")
     return scene

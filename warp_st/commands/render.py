@@ -1,6 +1,7 @@
 """``warp-st render``: frames of a stage to EXR files, atomically, resumable."""
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import shlex
@@ -55,7 +56,11 @@ def add_arguments(parser) -> None:
                         help="also write the CryptoObject and CryptoMaterial Cryptomatte layers (prim-path mattes "
                         "for compositors; coverage from --samples)")
     parser.add_argument("--precision", choices=("float32", "float64"), help="scalar type of the kernels")
-    parser.add_argument("--light-speed", choices=("finite", "infinite"), help="finite (c = 1) or infinite light speed")
+    parser.add_argument("--light-speed", type=light_speed_arg, metavar="C",
+                        help="the speed of light: a value with a unit, e.g. 299792458m/s or 2units/timecode "
+                        "('physical': 299792458m/s in the stage's metersPerUnit and timeCodesPerSecond), or "
+                        "'infinite' (no light-travel time) or 'finite' (the stage's own). Default: 1 unit per time "
+                        "code on stages that use the spacetime schemas, else physical (docs/spec.md §3.1)")
     parser.add_argument("--quadrics", choices=("exact", "tessellated"),
                         help="UsdGeom.Spheres traced as exact ellipsoids (the float32 default) or as triangles "
                         "within half a pixel (the only choice with --precision float64)")
@@ -78,6 +83,26 @@ def add_arguments(parser) -> None:
     parser.add_argument("--log", metavar="FILE.jsonl",
                         help="append one JSON line per frame to FILE ('-': print them on stdout instead of the "
                         "usual lines)")
+
+def light_speed_arg(text: str):
+    """``finite`` / ``infinite`` (a light-speed mode), else a :class:`LightSpeedSetting`."""
+    from warp_st.core.light_speed import parse_light_speed
+
+    if text in ("finite", "infinite"):
+        return text
+    try:
+        return parse_light_speed(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _light_speed_mode(args):
+    return args.light_speed if isinstance(args.light_speed, str) else None
+
+
+def _stage_light_speed(args) -> str | None:
+    return None if args.light_speed is None or isinstance(args.light_speed, str) else str(args.light_speed)
+
 
 def plan_outputs(args, scene_path: Path, frames: list[float], frames_given: bool, scene=None) -> list[FrameJob]:
     """The frame jobs of ``-o`` (every channel; default ``<scene stem>.exr`` /
@@ -131,7 +156,8 @@ def run(args, argv: list[str]) -> int:
         except OSError as exc:
             raise UsageError(f"--log: {exc.strerror or exc}") from None
     stage_hash = file_hash(scene_path)
-    scene = load(scene_path, args.no_references, args.max_memory)
+    scene = load(scene_path, args.no_references, args.max_memory, light_speed=args.light_speed
+                 if not isinstance(args.light_speed, str) else None)
     if frames is None:
         frames = [float(scene.frame_range[0])] if scene.frame_range is not None else [0.0]
     jobs = plan_outputs(args, scene_path, frames, frames_given, scene)
@@ -148,7 +174,7 @@ def run(args, argv: list[str]) -> int:
         searchlight=args.searchlight,
         cryptomatte=args.cryptomatte,
         precision=Precision(args.precision) if args.precision else None,
-        light_speed=LightSpeed(args.light_speed) if args.light_speed else None,
+        light_speed=LightSpeed(_light_speed_mode(args)) if _light_speed_mode(args) else None,
         quadrics=args.quadrics,
         max_memory=args.max_memory,  # None: the Renderer's default limit (75% of the physical memory)
     )
@@ -161,7 +187,8 @@ def run(args, argv: list[str]) -> int:
     started = time.time()
     try:
         result = render_sequence(
-            StageFile(scene_path, no_references=args.no_references, sha256=stage_hash, scene=scene),
+            StageFile(scene_path, no_references=args.no_references, sha256=stage_hash, scene=scene,
+                      light_speed=_stage_light_speed(args)),
             output=jobs, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
             progress=not args.quiet, log=console, metadata=metadata, **options)
     except KeyboardInterrupt as exc:

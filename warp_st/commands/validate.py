@@ -7,12 +7,17 @@ there is no error (warnings allowed), 2 when there is one (with one line
 """
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
 
 from warp_st.commands.common import PROG, UsageError
-from warp_st.commands.load import _address_space_cap, _probe_in_child, _uses_crate_layers
+from warp_st.commands.load import (
+    _address_space_cap,
+    _probe_in_child,
+    _uses_crate_layers,
+)
 
 
 def add_arguments(parser) -> None:
@@ -21,6 +26,17 @@ def add_arguments(parser) -> None:
     parser.add_argument("--no-references", action="store_true",
                         help="compose only the file's own layers: ignore references and payloads")
     parser.add_argument("--json", action="store_true", help="print the problems as one JSON object")
+    parser.add_argument("--light-speed", type=stage_light_speed_arg, metavar="C",
+                        help="the stage's speed of light, as render's --light-speed (e.g. 30m/s, 2units/timecode)")
+
+
+def stage_light_speed_arg(text: str):
+    from warp_st.core.light_speed import parse_light_speed
+
+    try:
+        return parse_light_speed(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _plural(n: int, word: str) -> str:
@@ -43,7 +59,7 @@ def run(args) -> int:
     # bindings) is listed by the built-in validators.
     with captured_output(), _address_space_cap(default_max_memory()):
         stage, _ = _open_file(label, args.no_references)
-        problems, scene = validate_stage(stage, label, no_references=args.no_references)
+        problems, scene = validate_stage(stage, label, no_references=args.no_references, light_speed=args.light_speed)
     if scene is not None:
         problems = list(problems) + _animation_problems(scene, label)
     n = counts(problems)

@@ -19,6 +19,7 @@ can appear between the reader and the kernels.
 """
 from __future__ import annotations
 
+import functools
 import math
 import os
 import re
@@ -53,7 +54,9 @@ MAX_PIXELS = (1 << 31) - 1
 _UNITS = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40, "P": 1 << 50}
 
 
+@functools.lru_cache(maxsize=1)
 def _cgroup_limit() -> int | None:
+    """The cgroup's memory limit (read once per process: the files are slow to open)."""
     for path in ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"):
         try:
             with open(path) as fh:

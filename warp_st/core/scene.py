@@ -145,6 +145,9 @@ class Surface:
         approximate: (kind "cylinder" / "cone" / "capsule", axis "X" / "Y" / "Z", radius,
         height, world_from_local 4x4 as for ``sphere``); None otherwise. The rigid path
         traces it exactly (``spacetime.rigid``).
+    samples: a ``warp_st.core.deform.PointSamples`` when USD deforms the surface
+        (time-sampled ``points`` or UsdSkel skinning, docs/spec.md §2.2; ``points`` is
+        then its value at the start time code), else None.
     """
 
     prim_path: str
@@ -157,6 +160,7 @@ class Surface:
     st: np.ndarray | None = None
     subset_materials: tuple[Material, ...] = ()
     triangle_material: np.ndarray | None = None
+    samples: object = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -366,6 +370,9 @@ class Scene:
     diagnostics: what the reader did not honour (warnings) and chose (info), stage order.
     meters_per_unit, time_codes_per_second: the stage's metadata (None: not read).
     dome: the sky (a DomeLight), None: the render settings' background.
+    light_speed: c in stage units per time code, the lab time of one time code (docs/spec.md
+        §3.1): every time on the scene (bodies, cameras) is lab time = light_speed x time code;
+        ``light_speed_origin`` says where it came from (schema, settings, --light-speed, physical).
     camera_state: ``camera_state(path, frame) -> CameraState`` evaluates a camera
         at a USD time code (the camera is the one thing that changes per frame).
     """
@@ -384,14 +391,20 @@ class Scene:
     meters_per_unit: float | None = None
     time_codes_per_second: float | None = None
     dome: Dome | None = None
+    light_speed: float = 1.0
+    light_speed_origin: str = ""
 
     def body_paths(self) -> list[str]:
         return [b.prim_path for b in self.bodies]
 
     def header(self) -> dict[str, str]:
         """Stage metadata for every frame's EXR header (``spacetime:<key>``)."""
-        items = {"metersPerUnit": self.meters_per_unit, "timeCodesPerSecond": self.time_codes_per_second}
-        return {key: repr(float(value)) for key, value in items.items() if value is not None}
+        items = {"metersPerUnit": self.meters_per_unit, "timeCodesPerSecond": self.time_codes_per_second,
+                 "lightSpeedUnitsPerTimeCode": self.light_speed}
+        header = {key: repr(float(value)) for key, value in items.items() if value is not None}
+        if self.light_speed_origin:
+            header["lightSpeedOrigin"] = self.light_speed_origin
+        return header
 
 
 def surface_keep(surf) -> np.ndarray:

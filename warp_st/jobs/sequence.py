@@ -233,7 +233,8 @@ def render_sequence(scene_or_path, frames=None, output=None, *, workers: int | N
 
     stage_file = isinstance(source, StageFile)
     run = run_identity(source.sha256 if stage_file else None, render_options,
-                       no_references=stage_file and source.no_references)
+                       no_references=stage_file and source.no_references,
+                       light_speed=source.light_speed if stage_file else None)
     skipped: dict[int, FrameResult] = {}
     stale: dict[int, list[str]] = {}
     todo: list[int] = []

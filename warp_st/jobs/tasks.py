@@ -28,19 +28,22 @@ class StageFile:
 
     sha256: ``sha256:HEX`` of the file (computed when not given); a worker that reads
     other bytes refuses rather than render a different stage. scene: the Scene already
-    loaded from it in this process (used here, never sent to a worker).
+    loaded from it in this process (used here, never sent to a worker). light_speed: the
+    stage's light speed when not its own (``load_scene``'s, e.g. ``"30m/s"``).
     """
 
-    def __init__(self, path, *, no_references: bool = False, sha256: str | None = None, scene=None):
+    def __init__(self, path, *, no_references: bool = False, sha256: str | None = None, scene=None,
+                 light_speed: str | None = None):
         self.name = os.fspath(path)
         self.path = os.path.abspath(self.name)
         self.no_references = bool(no_references)
+        self.light_speed = light_speed  # None: the stage's own (docs/spec.md §3.1)
         self.sha256 = sha256 or file_hash(Path(self.path))
         self.scene = scene
 
     @property
     def key(self) -> tuple:
-        return ("file", self.path, self.sha256, self.no_references)
+        return ("file", self.path, self.sha256, self.no_references, self.light_speed)
 
     def load(self):
         if self.scene is None:
@@ -49,7 +52,7 @@ class StageFile:
                                  f"(expected {self.sha256})")
             with warnings.catch_warnings():  # reported once, by the process that planned the work
                 warnings.simplefilter("ignore")
-                self.scene = load_scene(self.path, no_references=self.no_references)
+                self.scene = load_scene(self.path, no_references=self.no_references, light_speed=self.light_speed)
         return self.scene
 
     def __getstate__(self):

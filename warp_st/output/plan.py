@@ -194,14 +194,18 @@ def _canonical(record: dict) -> str:
     return json.dumps(record, sort_keys=True, separators=(",", ":"))
 
 
-def run_identity(stage: str | None, options: dict, *, no_references: bool = False) -> str:
+def run_identity(stage: str | None, options: dict, *, no_references: bool = False,
+                 light_speed: str | None = None) -> str:
     """What a run renders, common to all its files, as canonical JSON (see the module docstring).
 
     stage: the root layer's ``sha256:HEX`` (None: a scene in memory). options: the
     Renderer keywords; None values (the stage's own) and :data:`NON_PIXEL_OPTIONS` are left out.
+    light_speed: the stage's light speed when the run sets it (``--light-speed 30m/s``).
     """
     kept = {name: _plain(value) for name, value in options.items()
             if value is not None and name not in NON_PIXEL_OPTIONS}
+    if light_speed is not None:
+        kept["stageLightSpeed"] = str(light_speed)
     return _canonical({"stage": stage, "noReferences": bool(no_references), "options": kept})
 
 

@@ -32,6 +32,7 @@ from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limit
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.animation import animated_bodies, animation_cuts
+from warp_st.spacetime.deform import deform_primitive
 from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
 from warp_st.spacetime.rigid import all_exact_quadrics, quadric_body
 from warp_st.spacetime.visibility import union, visibility_windows
@@ -192,6 +193,7 @@ class Renderer:
         # The rigid path's wp.Mesh queries are float32: in float64 it serves only scenes
         # whose every body is an exact quadric (then it is exact in float64).
         all_exact = quadrics != "tessellated" and all_exact_quadrics(scene)
+        primitive = deform_primitive(scene, primitive)  # deforming bodies: tetrahedra (docs/spec.md §2.2)
         if primitive is None:
             primitive = "rigid" if self.precision == Precision.FLOAT32 or all_exact else "prism"
         if primitive == "rigid" and self.precision != Precision.FLOAT32 and not all_exact:
@@ -247,6 +249,11 @@ class Renderer:
     def _camera(self, frame: float) -> CameraState:
         return self.scene.camera_state(self.camera_path, frame)
 
+    @property
+    def _lab_shutter(self) -> float:
+        """The shutter (time codes) in lab time (docs/spec.md §3.1)."""
+        return self.shutter * self.scene.light_speed
+
     def _frame_light_speed(self, cam: CameraState) -> LightSpeed:
         return self.light_speed or LightSpeed(cam.light_speed)
 
@@ -261,7 +268,7 @@ class Renderer:
         t0 = time.perf_counter()
         modes = {self._frame_light_speed(c) for c in cams}
         # The shutter moves each camera event along its worldline by up to `shutter`.
-        shutter = self.shutter if self.samples > 1 else 0.0
+        shutter = self._lab_shutter if self.samples > 1 else 0.0
         ends = cams + [c.advanced(shutter) for c in cams if shutter > 0.0]
         cache = database_cache.for_scene(self.scene)
         scene = self.scene
@@ -450,7 +457,7 @@ class Renderer:
             doppler_color=self.doppler_color, searchlight=self.searchlight, dome=self.scene.dome,
         )
         kcam = make_camera(
-            k, cam, self.width, self.height, self._frame_light_speed(cam), samples=self.samples, shutter=self.shutter
+            k, cam, self.width, self.height, self._frame_light_speed(cam), samples=self.samples, shutter=self._lab_shutter
         )
 
         n_pix = self.width * self.height
@@ -475,8 +482,7 @@ class Renderer:
             for tile in tiles:
                 launch(tile)
         else:
-            with ThreadPoolExecutor(max_workers=n_threads) as pool:
-                list(pool.map(launch, tiles))
+            list(_tile_pool(n_threads).map(launch, tiles))
         kernel_seconds = time.perf_counter() - t_kernel
         if film.overflow.numpy()[0]:
             raise RuntimeError("BVH traversal stack overflow: the image would be wrong (please report)")
@@ -491,12 +497,16 @@ class Renderer:
     def _image(self, film, cam: CameraState, frame: float) -> Image:
         h, w = self.height, self.width
         rgba = film.rgba.numpy().reshape(h, w, 4).astype(np.float32)
+        # The kernels' times are lab times; the image's are time codes (lab / the light speed, §3.1).
+        per_code = float(self.scene.light_speed)
         rel = film.event_time.numpy().reshape(h, w)
-        origin = float(cam.time)
+        origin = float(cam.time) / per_code
         object_id = film.object_id.numpy().reshape(h, w).astype(np.uint32)
         if self.object_of is not None:  # an animated body's pieces are one object
             object_id = np.where(object_id > 0, self.object_of[np.maximum(object_id, 1) - 1] + 1, 0).astype(np.uint32)
         source_rel = film.source_time.numpy().reshape(h, w)
+        if per_code != 1.0:
+            rel, source_rel = rel.astype(np.float64) / per_code, source_rel.astype(np.float64) / per_code
         # Absolute times, quantised exactly as the EXR stores them: float32 relative to t_c,
         # and in float64 renders with each one's float32 residual beside it (channels.py).
         times, lows = {}, {}
@@ -517,7 +527,7 @@ class Renderer:
             rgba=rgba,
             depth=film.depth.numpy().reshape(h, w).astype(np.float32),
             event_time=event_time,
-            proper_time=film.proper_time.numpy().reshape(h, w).astype(np.float32),
+            proper_time=(film.proper_time.numpy().reshape(h, w) / np.float32(per_code)).astype(np.float32),
             doppler=film.doppler.numpy().reshape(h, w).astype(np.float32),
             object_id=object_id,
             source_time=source_time,
@@ -542,6 +552,19 @@ class Renderer:
                 **self.scene.header(),  # metersPerUnit, timeCodesPerSecond
             },
         )
+
+
+_POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
+
+
+def _tile_pool(n_threads: int) -> ThreadPoolExecutor:
+    """This process's pool of ``n_threads`` tile threads, kept between frames (starting the
+    threads cost ~10 ms a frame); a forked child makes its own."""
+    key = (os.getpid(), n_threads)
+    pool = _POOLS.get(key)
+    if pool is None:
+        pool = _POOLS[key] = ThreadPoolExecutor(max_workers=n_threads, thread_name_prefix="warp-st-tiles")
+    return pool
 
 
 def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fine: bool = True,

@@ -23,6 +23,7 @@ import numpy as np
 
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Body, Scene, surface_keep, surface_triangles
+from warp_st.spacetime.deform import deform_slices, deformed_events, deformed_triangles, deforming
 from warp_st.spacetime.visibility import intervals
 
 __all__ = [
@@ -144,6 +145,8 @@ def body_slices(
     if fraction is None and not fine:
         fraction = SWEEP_FRACTION
     size = segment_sweep(body) if fraction is None else fraction * _body_size(body)
+    if deforming(body):  # per-vertex worldlines from USD's samples (docs/spec.md §2.2)
+        return deform_slices(body, window, size, max_segments=max_segments)
     sweep = body.speed * (t1 - t0)
     k = 1 if sweep <= size else int(min(np.ceil(sweep / size), max_segments))
     return np.linspace(t0, t1, k + 1)
@@ -274,6 +277,8 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
         bt = body_triangles(body, materials, mat_index)
         if bt is None:
             continue
+        if deforming(body):
+            bt = deformed_triangles(body, bt, longest_edges)
         tris, n_pts, n_tri = bt.triangles, len(bt.local), len(bt.triangles)
         tri_normal.append(bt.tri_normal)
         tri_smooth.append(bt.tri_smooth)
@@ -284,9 +289,13 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
         tri_st.append(np.take_along_axis(bt.tri_st, np.argsort(tris, axis=1)[:, :, None], axis=1))
         for part in parts:  # each interval on its own
             slices = body_slices(body, part, fine=fine, fraction=fraction)
-            ev = _slice_events(bt.local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
+            if deforming(body):
+                ev, normals = deformed_events(body, slices)
+            else:
+                ev = _slice_events(bt.local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
+                normals = np.broadcast_to(bt.normals, (len(slices), n_pts, 3))
             verts.append(ev.reshape(-1, 4))
-            vnorms.append(np.broadcast_to(bt.normals, (len(slices), n_pts, 3)).reshape(-1, 3))
+            vnorms.append(normals.reshape(-1, 3))
             tets.append(_prism_tets(tris, n_pts, len(slices) - 1) + v_base)
             tet_tri.append(np.tile(np.arange(n_tri, dtype=np.int64), 3 * (len(slices) - 1)) + t_base)
             prisms.append(_prisms(tris, n_pts, len(slices) - 1) + v_base)

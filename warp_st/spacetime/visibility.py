@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from warp_st.core.lorentz import contraction_matrix
+from warp_st.core.deform import deforming, surface_hull_points
 from warp_st.core.scene import Body, CameraState, Scene, surface_triangles
 
 __all__ = ["body_ball", "body_pieces", "frame_window", "hull", "intervals", "union", "intersection", "span",
@@ -39,7 +40,7 @@ _UNBOUNDED_REACH = 1e6
 
 def body_ball(body: Body) -> tuple[np.ndarray, float]:
     """Centre m0 (lab, at t_ref) and radius rho of a ball holding the contracted body."""
-    pts = np.concatenate([s.points for s in body.surfaces]) if body.surfaces else np.zeros((1, 3))
+    pts = np.concatenate([surface_hull_points(s) for s in body.surfaces]) if body.surfaces else np.zeros((1, 3))
     A = contraction_matrix(body.velocity, body.decoupled)
     local = (pts - body.origin) @ A.T + body.origin
     m0 = 0.5 * (local.min(axis=0) + local.max(axis=0))
@@ -57,7 +58,7 @@ def body_pieces(body: Body) -> list[tuple[np.ndarray, float]]:
     spatial clusters, each ball holding its triangles' vertices (so their whole
     triangles). A body with an analytic sphere (re-tessellated at render time) stays
     one piece, ``body_ball``."""
-    if not body.surfaces or any(s.sphere is not None for s in body.surfaces):
+    if not body.surfaces or any(s.sphere is not None for s in body.surfaces) or deforming(body):
         return [body_ball(body)]
     A = contraction_matrix(body.velocity, body.decoupled)
     tri = np.concatenate([((s.points - body.origin) @ A.T + body.origin)[surface_triangles(s)] for s in body.surfaces])
@@ -82,12 +83,19 @@ def body_pieces(body: Body) -> list[tuple[np.ndarray, float]]:
 
 
 def _solve_h(w: np.ndarray, v: np.ndarray, k: float) -> np.ndarray:
-    """Roots tau of |w + v tau| = k - tau with k - tau >= 0 (ascending)."""
+    """Roots tau of |w + v tau| = k - tau with k - tau >= 0 (ascending).
+
+    Solved for the lookback u = k - tau >= 0, |w' - v u| = u with w' = w + v k (where the
+    body's centre is at tau = k): (|v|^2 - 1) u^2 - 2 (w'.v) u + |w'|^2 = 0. Its
+    coefficients are the size of the scene, not of k, so the roots keep their precision at
+    any lab time (in tau, c = |w|^2 - k^2 cancels catastrophically once k >> |w|).
+    """
+    wk = w + v * k
     a = float(v @ v) - 1.0
-    b = 2.0 * (float(w @ v) + k)
-    c = float(w @ w) - k * k
+    b = -2.0 * float(wk @ v)
+    c = float(wk @ wk)
     if abs(a) < 1e-15:
-        roots = np.array([-c / b]) if b != 0.0 else np.zeros(0)
+        u = np.array([-c / b]) if b != 0.0 else np.zeros(0)
     else:
         disc = b * b - 4.0 * a * c
         if disc < 0.0:
@@ -95,9 +103,9 @@ def _solve_h(w: np.ndarray, v: np.ndarray, k: float) -> np.ndarray:
         sq = np.sqrt(disc)
         # Numerically stable pair of roots.
         q = -0.5 * (b + np.copysign(sq, b)) if b != 0.0 else -0.5 * sq
-        roots = np.array([q / a, c / q]) if q != 0.0 else np.array([0.0])
-    tol = 1e-9 * (1.0 + abs(k))
-    return np.sort(roots[k - roots >= -tol])
+        u = np.array([q / a, c / q]) if q != 0.0 else np.array([0.0])
+    tol = 1e-9 * (1.0 + float(np.sqrt(c)))
+    return np.sort(k - u[u >= -tol])
 
 
 def frame_window(m0, rho, v, t_ref, t_c, c, *, infinite=False, extra=0.0):

@@ -54,8 +54,9 @@ def animated_op(prim):
 
 def sample_motion(where: Where, prim, velocity: np.ndarray, reference_time: float,
                   samples: tuple[float, ...]) -> BodyMotion:
-    """The probes of ``prim``'s animated worldline over USD's ``samples`` (>= 2 times), the
-    uniform motion ``velocity`` (from ``reference_time``) added."""
+    """The probes of ``prim``'s animated worldline over USD's ``samples`` (>= 2 time codes), the
+    uniform motion ``velocity`` (from the lab time ``reference_time``) added; the probes' times
+    are lab times (time codes x ``where.lab_per_code``)."""
     xformable = UsdGeom.Xformable(prim)
     v = np.asarray(velocity, dtype=np.float64)
 
@@ -68,9 +69,11 @@ def sample_motion(where: Where, prim, velocity: np.ndarray, reference_time: floa
     static = evaluate(where.static if where.static is not None else samples[0])
     static_inv = np.linalg.inv(static)
 
+    k = where.lab_per_code  # probe times are time codes until the end; lab time = k x time code
+
     def probe(t: float):
         m = evaluate(t)
-        return m[3, :3] + v * (t - reference_time), (static_inv @ m)[:3, :3]
+        return m[3, :3] + v * (k * t - reference_time), (static_inv @ m)[:3, :3]
 
     times, pivots, linears = [samples[0]], [], []
     o0, l0 = probe(samples[0])
@@ -82,7 +85,7 @@ def sample_motion(where: Where, prim, velocity: np.ndarray, reference_time: floa
         times.append(b)
         pivots.append(ob)
         linears.append(lb)
-    return BodyMotion(times=np.array(times), pivot=np.array(pivots), linear=np.array(linears),
+    return BodyMotion(times=k * np.array(times), pivot=np.array(pivots), linear=np.array(linears),
                       static_pivot=static[3, :3].copy(), sample_times=tuple(samples), hold_velocity=v.copy())
 
 

@@ -84,6 +84,7 @@ class Where:
 
     file: str
     static: float | None = None  # the static time code (None: the default time code)
+    lab_per_code: float = 1.0  # lab time of one time code: the stage's light speed (core/light_speed.py)
 
     @property
     def time(self) -> Usd.TimeCode:
@@ -291,7 +292,8 @@ def _array(where: Where, prim, name: str, kinds: frozenset[str], what: str, dtyp
 
 
 def body_kinematics(where: Where, prim) -> tuple[np.ndarray, float, tuple[float, float], bool]:
-    """Validated ``SpacetimeBodyAPI`` values: (velocity v, t_ref, lifetime, decoupled).
+    """Validated ``SpacetimeBodyAPI`` values: (velocity v, t_ref, lifetime, decoupled), the
+    times lab times (time codes x ``where.lab_per_code``).
 
     v = (x, y, z) / t of ``spacetime:fourVelocity`` (t > 0); a Lorentz-coupled body
     needs |v| < 1, a decoupled one any finite v (docs/spec.md §2).
@@ -305,6 +307,8 @@ def body_kinematics(where: Where, prim) -> tuple[np.ndarray, float, tuple[float,
     begin, end = vector(where, prim, "spacetime:lifetime", 2, (-math.inf, math.inf), finite=False)
     if not begin < end:
         raise where.error(prim, "spacetime:lifetime", f"tBegin must be < tEnd, got ({begin}, {end})")
+    k = where.lab_per_code  # the attributes are time codes; the renderer's times are lab times
+    reference_time, begin, end = reference_time * k, begin * k, end * k
     decoupled = boolean(where, prim, "spacetime:lorentzDecoupled", False)
     with np.errstate(over="ignore"):
         speed = float(np.linalg.norm(velocity))

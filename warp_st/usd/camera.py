@@ -41,9 +41,11 @@ class Framing:
     horizontal_aperture: float
     vertical_aperture: float = FRAMING_VERTICAL_APERTURE
     focal_length: float = FRAMING_FOCAL_LENGTH
+    lab_per_code: float = 1.0  # the stage's light speed (docs/spec.md §3.1)
 
     def state(self, frame: float) -> CameraState:
-        return CameraState(prim_path=DEFAULT_CAMERA, time=float(frame), position=np.array(self.position),
+        return CameraState(prim_path=DEFAULT_CAMERA, time=self.lab_per_code * float(frame),
+                           position=np.array(self.position),
                            rotation=np.array(self.rotation), focal_length=self.focal_length,
                            horizontal_aperture=self.horizontal_aperture, vertical_aperture=self.vertical_aperture)
 
@@ -160,9 +162,10 @@ class CameraEvaluator:
         if rotation is None:
             raise w.error(prim, "xformOpOrder", "the world transform is singular")
 
-        # t_c: spacetime:time at this time code, else the time code itself (docs/spec.md §3).
+        # t_c: spacetime:time at this time code, else the time code itself (docs/spec.md §3), in
+        # lab time (x the stage's light speed, docs/spec.md §3.1).
         time = A.real(w, prim, "spacetime:time", None, time=tc)
-        time = frame if time is None else time
+        time = w.lab_per_code * (frame if time is None else time)
         light_speed = A.token(w, prim, "spacetime:lightSpeed", tuple(s.value for s in LightSpeed),
                               LightSpeed.FINITE.value, time=tc)
         velocity, decoupled = self._animated_velocity(prim, frame, position, time), False
@@ -210,7 +213,7 @@ class CameraEvaluator:
         if not moved.any():  # time-sampled but still here (equal samples, or a hold): at rest
             return np.zeros(3)
         t_later = A.real(w, prim, "spacetime:time", None, time=tc)
-        dt = step if t_later is None else t_later - time
+        dt = w.lab_per_code * step if t_later is None else w.lab_per_code * t_later - time
         if not dt > 0.0:
             raise w.error(prim, "spacetime:time", f"must increase with the time code where the camera is animated "
                                                   f"(time code {frame:g})")

@@ -6,8 +6,9 @@ The reader adds to a :class:`Notes` while it reads; nothing it leaves out goes u
 - composition arcs that could not be composed (a missing reference, payload or sublayer,
   a ``.mtlx`` asset), one line each naming the layer and the asset (:func:`composition`);
 - authored schema attributes and relationships the renderer does not use, when their
-  value differs from the schema's fallback (:func:`check_prim`), and time samples on
-  anything but a camera (USD animation is not rendered yet);
+  value differs from the schema's fallback (:func:`check_prim`), and time samples the
+  renderer does not follow (it follows xformOps that move bodies, docs/spec.md §2.1, and
+  the points of deforming meshes, §2.2);
 - prims it does not render (their types), and values it could not use (a bad primvar,
   normal or material input), with what it used instead.
 
@@ -37,6 +38,9 @@ class Notes:
         self.count_samples = True
         #: prims whose time-sampled xformOps move a body (docs/spec.md §2.1): not warned
         self.animated: set[str] = set()
+        #: deforming gprims (docs/spec.md §2.2): their points (and extent) samples and
+        #: UsdSkel bindings are honoured, not warned
+        self.deformed: set[str] = set()
 
     def warn(self, prim, attribute: str | None, message: str, code: str) -> None:
         self._add("warning", prim, attribute, message, code)
@@ -208,7 +212,8 @@ def check_prim(notes: Notes, prim, time, *, attributes: bool = True, samples: bo
         name = attr.GetName()
         if masked and (path, name) in masked:
             continue
-        honoured_samples = name.startswith("xformOp:") and path in notes.animated  # docs/spec.md §2.1
+        honoured_samples = (name.startswith("xformOp:") and path in notes.animated  # docs/spec.md §2.1
+                            or path in notes.deformed and name in ("points", "extent"))  # §2.2
         if samples and attr.ValueMightBeTimeVarying() and not honoured_samples:  # one sample is a constant
             at = "its default value" if name.startswith("spacetime:") else f"its value at time code {time.GetValue():g}"
             count = "time samples"
@@ -217,7 +222,8 @@ def check_prim(notes: Notes, prim, time, *, attributes: bool = True, samples: bo
                 count = f"{len(times)} time samples ({times[0]:g} to {times[-1]:g})"
             notes.warn(path, name, f"has {count}; USD animation is not rendered yet: every frame uses {at}",
                        "TimeSampled")
-        if (name not in schema or name in honoured or name.startswith(("xformOp:", "spacetime:"))):
+        if (name not in schema or name in honoured or name.startswith(("xformOp:", "spacetime:"))
+                or path in notes.deformed and name.startswith(("primvars:skel:", "skel:"))):
             continue
         value = attr.Get(time)
         fallback = definition.GetAttributeFallbackValue(name)

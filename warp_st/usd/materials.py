@@ -10,10 +10,12 @@ Honoured: a UsdPreviewSurface on the material's universal ``outputs:surface``, i
 ``diffuseColor``, ``emissiveColor`` and ``metallic`` (the weight of a perfect mirror,
 docs/spec.md §2), each a constant or a ``UsdUVTexture`` (``warp_st.usd.textures``).
 Everything else a bound material says is a warning naming the prim and the attribute
-(``warp_st.usd.diagnostics``): other shaders and render contexts (MaterialX), inputs
+(``warp_st.usd.diagnostics``): other shaders and render contexts, inputs
 driven by other shaders, the other UsdPreviewSurface inputs when they differ from the
 shader's defaults, per-vertex display colours. A value of the wrong type is a warning
-too, and the default is used.
+too, and the default is used. A material without a universal surface but with a MaterialX
+one (``outputs:mtlx:surface``: Standard Surface, OpenPBR) is read by ``warp_st.usd.materialx``,
+MaterialX's ``ND_UsdPreviewSurface_surfaceshader`` there as a UsdPreviewSurface.
 """
 from __future__ import annotations
 
@@ -27,9 +29,16 @@ from warp_st.core.scene import Material, SceneError, Texture
 from warp_st.usd import attributes as A
 from warp_st.usd.attributes import Where
 from warp_st.usd.diagnostics import Notes, same_value
-from warp_st.usd.textures import TextureReader
+from warp_st.usd.materialx import MaterialXReader
+from warp_st.usd.textures import TextureReader, one_st
 
 __all__ = ["MaterialReader", "preview_defaults"]
+
+#: The render context of inline MaterialX networks (``warp_st.usd.materialx``), read
+#: when a material has no universal surface.
+MTLX = "mtlx"
+#: MaterialX's own UsdPreviewSurface node (the inputs and defaults of UsdPreviewSurface).
+MTLX_PREVIEW = "ND_UsdPreviewSurface_surfaceshader"
 
 #: UsdPreviewSurface inputs the renderer uses.
 HONOURED_INPUTS = ("diffuseColor", "emissiveColor", "metallic")
@@ -62,6 +71,7 @@ class MaterialReader:
         self.notes = notes
         self._by_material: dict[str, Material | None] = {}
         self._texture = TextureReader(where, notes)
+        self._materialx = MaterialXReader(where, notes, self._texture)
 
     def __call__(self, prim) -> Material:
         found = self._bound(prim)
@@ -105,18 +115,25 @@ class MaterialReader:
         source = material.ComputeSurfaceSource()
         shader = source[0] if isinstance(source, tuple) else source
         instead = "displayColor is used"
+        expected = "UsdPreviewSurface"  # on the universal output
+        if not shader:
+            mtlx = material.ComputeSurfaceSource(MTLX)[0]  # no universal surface here: the mtlx one only
+            if mtlx and mtlx.GetShaderId() == MTLX_PREVIEW:
+                shader, expected = mtlx, MTLX_PREVIEW  # MaterialX's UsdPreviewSurface: the same inputs
+            elif mtlx:
+                return self._materialx(material, mtlx)
         if not shader:
             others = [o.GetFullName() for o in material.GetSurfaceOutputs() if o.GetFullName() != "outputs:surface"]
             if others:
-                self.notes.warn(material.GetPrim(), others[0], "only a UsdPreviewSurface on outputs:surface is "
-                                f"supported (not this render context's shading, e.g. MaterialX); {instead}",
-                                "UnsupportedShader")
+                self.notes.warn(material.GetPrim(), others[0], "only a UsdPreviewSurface on outputs:surface or a "
+                                f"MaterialX surface on outputs:mtlx:surface is supported (not this render context's "
+                                f"shading); {instead}", "UnsupportedShader")
             else:
                 self.notes.warn(material.GetPrim(), "outputs:surface", f"has no surface shader; {instead}",
                                 "UnsupportedShader")
             return None
         shader_id = shader.GetShaderId()
-        if shader_id != "UsdPreviewSurface":
+        if shader_id != expected:
             self.notes.warn(material.GetPrim(), "outputs:surface",
                             f"its shader {shader.GetPath()} is {str(shader_id or 'not identified')!r}, not "
                             f"UsdPreviewSurface, which is the only one supported; {instead}", "UnsupportedShader")
@@ -126,13 +143,7 @@ class MaterialReader:
         emissive, emissive_tex = self._input(shader, "emissiveColor", 3, defaults.emissive)
         metallic, metallic_tex = self._input(shader, "metallic", 1, (defaults.metallic,))
         textures = [t for t in (diffuse_tex, emissive_tex, metallic_tex) if t is not None]
-        if len({t.primvar for t in textures}) > 1:
-            self.notes.warn(shader.GetPrim(), "inputs", "its textures read different st primvars "
-                            f"({', '.join(sorted({repr(t.primvar) for t in textures}))}); one st per surface is "
-                            f"supported: {textures[0].primvar!r} is used for all", "NotHonoured")
-        elif len({None if t.st_transform is None else t.st_transform.tobytes() for t in textures}) > 1:
-            self.notes.warn(shader.GetPrim(), "inputs", "its textures transform st differently (UsdTransform2d); "
-                            "one st per surface is supported: the first texture's is used for all", "NotHonoured")
+        one_st(self.notes, shader.GetPrim(), textures)
         material_out = Material(
             diffuse=tuple(diffuse), emissive=tuple(emissive), metallic=float(np.clip(metallic[0], 0.0, 1.0)),
             diffuse_texture=diffuse_tex, emissive_texture=emissive_tex, metallic_texture=metallic_tex,

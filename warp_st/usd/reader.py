@@ -28,6 +28,7 @@ what is not honoured.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import warnings
@@ -37,15 +38,24 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdSkel
 
 from warp_st.core.conventions import DEFAULT_RESOLUTION, Precision
+from warp_st.core.light_speed import LightSpeedSetting, parse_light_speed
 from warp_st.core.limits import MAX_BOUNCES, MAX_PIXELS, MAX_SAMPLES
 from warp_st.core.scene import DEFAULT_CAMERA, Body, Light, RenderSettings, Scene, SceneError, Surface
 from warp_st.usd import attributes as A
 from warp_st.usd.animation import animated_op, sample_motion, xform_sample_times
-from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api, static_time
+from warp_st.usd.attributes import (
+    SPACETIME_BODY_API,
+    Where,
+    body_kinematics,
+    has_api,
+    static_time,
+)
 from warp_st.usd.camera import CameraEvaluator, frame_bounds
+from warp_st.usd.deform import SkinnedStage, is_skinned, points_sample_times, posed_points, sample_surface
 from warp_st.usd.diagnostics import Notes, check_prim, composition, samples_listable, unknown_type
 from warp_st.usd.dome import read_dome
 from warp_st.usd.geometry import GprimReader, is_hidden, world_transform
+from warp_st.usd.light_speed import SCHEMA_LIGHT_SPEED, settings_and_schema_use, stage_light_speed
 from warp_st.usd.lights import SUPPORTED, read_light
 from warp_st.usd.products import read_products
 from warp_st.usd.stage import open_stage, tf_message
@@ -92,12 +102,16 @@ class _StageReader:
         self.cameras: list[str] = []
         self.settings_prims: list = []
         self._current = None
+        self.skinned = SkinnedStage(stage)  # UsdSkel.BakeSkinning on a copy, made on first use
 
-    def read(self, *, reopen: str | None = None, no_references: bool = False) -> Scene:
+    def read(self, *, reopen: str | None = None, no_references: bool = False,
+             light_speed: LightSpeedSetting | None = None) -> Scene:
         # (not in __init__: validators build readers inside USD's worker threads, where
         # GetUsedLayers can wait on a lock a thread waiting for the GIL holds)
         self.notes.count_samples = samples_listable(self.stage)
         composition(self.notes, self.stage)
+        self.light_speed, self.light_speed_origin = self._light_speed(light_speed)
+        self.where = dataclasses.replace(self.where, lab_per_code=self.light_speed)
         self._traverse()
         dome = read_dome(self.where, self.notes, self.domes, self._world)  # the sky (usd/dome.py)
         settings_prim = self._settings_prim()
@@ -107,13 +121,14 @@ class _StageReader:
         if settings_prim is not None:
             check_prim(self.notes, settings_prim, self.where.time)
         for body in self.bodies:
+            self._deforming_body(body)
             self._check_points(body)
         bodies = tuple(b.build() for b in self.bodies if b.surfaces)
         cameras = tuple(self.cameras)
         framing = None
         if bodies:
-            framing = frame_bounds(*_bounds(bodies, self.stage), str(UsdGeom.GetStageUpAxis(self.stage)),
-                                   _aspect(settings.resolution))
+            framing = dataclasses.replace(frame_bounds(*_bounds(bodies, self.stage), str(UsdGeom.GetStageUpAxis(
+                self.stage)), _aspect(settings.resolution)), lab_per_code=self.light_speed)
         self._closing_notes(cameras, framing)
         default_camera = settings.camera or (cameras[0] if cameras else DEFAULT_CAMERA)
         frame_range = None
@@ -135,11 +150,13 @@ class _StageReader:
             meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(self.stage)),
             time_codes_per_second=float(self.stage.GetTimeCodesPerSecond()),
             dome=dome,
+            light_speed=self.light_speed,
+            light_speed_origin=self.light_speed_origin,
         )
 
     def _closing_notes(self, cameras, framing) -> None:
         """What only the whole stage tells: subdivision (one line), bodies with nothing to
-        draw, the default camera (information) or nothing to render at all."""
+        draw, the light speed and the default camera (information) or nothing to render at all."""
         if self.gprims.subdivided:
             first, more = self.gprims.subdivided[0], len(self.gprims.subdivided) - 1
             others = f" (and {more} more mesh{'es' if more > 1 else ''})" if more else ""
@@ -149,6 +166,9 @@ class _StageReader:
             if not body.surfaces and body.api:
                 self.notes.warn(body.prim_path, None, "has SpacetimeBodyAPI but no visible supported geometry of its "
                                                       "own: nothing of this body is rendered", "EmptyBody")
+        if self.light_speed_origin != SCHEMA_LIGHT_SPEED:
+            self.notes.info(None, None, f"light speed {self.light_speed:.9g} stage units per time code: "
+                                        f"{self.light_speed_origin}", "LightSpeed")
         if not cameras and framing is None:
             self.notes.warn(None, None, "the stage has no camera and no supported visible geometry: there is nothing "
                                         "to render (as a layer to reference it is fine)", "NothingToRender")
@@ -189,7 +209,8 @@ class _StageReader:
                 check_prim(notes, prim, time, samples=False)  # a camera is evaluated per frame
                 continue
             if prim.IsA(UsdRender.Settings):
-                self.settings_prims.append(prim)
+                if prim not in self.settings_prims:  # (the light-speed pass found it first)
+                    self.settings_prims.append(prim)
                 it.PruneChildren()
                 continue
             if hidden is None and is_hidden(prim, time):
@@ -205,9 +226,6 @@ class _StageReader:
             why = unknown_type(prim)
             if why:
                 notes.warn(prim, None, why, "UnsupportedPrim")
-            if prim.IsA(UsdSkel.Root):
-                notes.warn(prim, None, "UsdSkel skinning is not applied: the meshes below render as authored "
-                                       "(their bind pose)", "NotHonoured")
             if prim.HasAPI(UsdLux.MeshLightAPI) or prim.HasAPI(UsdLux.VolumeLightAPI):
                 notes.warn(prim, None, "MeshLightAPI / VolumeLightAPI is not honoured: the prim does not light "
                                        "the scene", "NotHonoured")
@@ -221,9 +239,65 @@ class _StageReader:
             elif prim.IsA(UsdGeom.Gprim):
                 if not owners:
                     self._animation_samples(prim)
-                surface = self.gprims.surface(prim)
+                surface = self._deformed(prim)
                 if surface is not None:
                     self._owner(owners, prim).surfaces.append(surface)
+
+    def _deformed(self, prim):
+        """The gprim's surface; a mesh with time-sampled points or skinned by UsdSkel gets
+        its world points at USD's sample times (docs/spec.md §2.2, ``usd/deform.py``)."""
+        source = None
+        if self.notes.count_samples and points_sample_times(prim):
+            source = prim
+        elif self.notes.count_samples and is_skinned(prim):
+            source = self.skinned.prim(prim.GetPath())
+            if source is None:
+                self.notes.warn(prim, None, f"UsdSkel could not skin it ({self.skinned.why(prim)}); rendered as "
+                                            "authored", "NotHonoured")
+        elif prim.IsA(UsdGeom.Mesh) and UsdSkel.Root.Find(prim) and UsdSkel.BindingAPI(prim).GetInheritedSkeleton():
+            self.notes.warn(prim, "primvars:skel:jointIndices", "the mesh is bound to a skeleton but has no joint "
+                                                                "indices: UsdSkel does not skin it; rendered as "
+                                                                "authored", "NotHonoured")
+        if source is None:
+            return self.gprims.surface(prim)
+        p = prim
+        self.notes.deformed.add(str(prim.GetPath()))
+        while p and not p.IsPseudoRoot():  # its world points follow every xformOp above it
+            self.notes.animated.add(str(p.GetPath()))
+            p = p.GetParent()
+        surface = self.gprims.surface(prim)
+        samples = None if surface is None else sample_surface(self.where, prim, surface, source, self.notes)
+        if samples is None:
+            posed = None if surface is None or source == prim else posed_points(self.where, source, surface)
+            return surface if posed is None else dataclasses.replace(surface, points=posed)
+        return dataclasses.replace(surface, samples=samples, points=samples.at(self.where.lab_per_code * self.where.time.GetValue()),
+                                   sphere=None, quadric=None)
+
+    def _deforming_body(self, body: _BodyBuilder) -> None:
+        """A body with a deforming surface (docs/spec.md §2.2): Lorentz-decoupled (its points
+        are lab positions), its other surfaces sampled through their world transforms when
+        USD animates it (then it has no rigid motion of its own)."""
+        deforming = [s for s in body.surfaces if s.samples is not None]
+        if not deforming:
+            return
+        if body.motion is not None:
+            for i, surface in enumerate(body.surfaces):
+                prim = self.stage.GetPrimAtPath(surface.prim_path) if surface.samples is None else None
+                samples = sample_surface(self.where, prim, surface) if prim and prim.IsA(UsdGeom.Gprim) else None
+                if samples is not None:
+                    body.surfaces[i] = dataclasses.replace(surface, samples=samples, sphere=None, quadric=None)
+                elif surface.samples is None:
+                    self.notes.warn(surface.prim_path, None, "an instance in a deforming body: it does not follow the "
+                                                             "body's animation (rendered where it is at the start "
+                                                             "time code)", "NotHonoured")
+            body.motion = None
+        times = np.concatenate([s.samples.times for s in deforming]) / self.where.lab_per_code  # time codes
+        how = "Lorentz-decoupled: its points are lab positions" + ("" if body.decoupled or not body.api else
+                                                                     " (spacetime:lorentzDecoupled is not set)")
+        self.notes.info(body.prim_path, None, f"deforming: {len(deforming)} surface(s) sampled at "
+                                              f"{len(np.unique(times))} time codes ({times.min():g} to {times.max():g}); "
+                                              f"{how}; the scene renders on the tetrahedral path", "Deforming")
+        body.decoupled = True
 
     def _world(self, prim) -> Gf.Matrix4d:
         """The prim's world transform, finite and within MAX_MAGNITUDE (else SceneError naming the op)."""
@@ -279,7 +353,7 @@ class _StageReader:
         if not speeds.size or not float(speeds.max()) >= 1.0:
             return
         k = int(np.argmax(speeds))
-        t = body.motion.times
+        t = body.motion.times / self.where.lab_per_code  # time codes
         lo = max(s for s in samples if s <= t[k])
         hi = min(s for s in samples if s >= t[k + 1])
         owner, op = animated_op(prim)  # the attribute at fault: the xformOp that moves the body
@@ -307,6 +381,13 @@ class _StageReader:
             self.lights.append(light)
 
     # -- render settings ------------------------------------------------------------
+    def _light_speed(self, requested: LightSpeedSetting | None) -> tuple[float, str]:
+        """The stage's light speed and where it comes from (``warp_st.usd.light_speed``)."""
+        if requested is not None:
+            return stage_light_speed(self.stage, self.where, self.notes, requested, None, False)
+        self.settings_prims, ours = settings_and_schema_use(self.stage)
+        return stage_light_speed(self.stage, self.where, self.notes, None, self._settings_prim(), ours)
+
     def _settings_prim(self):
         """The stage's renderSettingsPrimPath, else the first RenderSettings prim, else None."""
         chosen = self.stage.GetMetadata("renderSettingsPrimPath") or ""
@@ -384,27 +465,31 @@ def _bounds(bodies, stage) -> tuple[np.ndarray, np.ndarray]:
     return lo, hi
 
 
-def load_scene(source, *, no_references: bool = False) -> Scene:
+def load_scene(source, *, no_references: bool = False, light_speed: str | LightSpeedSetting | None = None) -> Scene:
     """Read a USD stage (a path or a ``Usd.Stage``) into a :class:`Scene`.
 
     Raises :class:`SceneError` (one line naming the file, prim and attribute) for a
     stage that cannot be opened or holds nothing to render, and for bad values of our
     own ``spacetime:`` attributes (and geometry that cannot be built); what the reader
     leaves out is a Python warning each (``Scene.diagnostics``). ``no_references=True``
-    composes only the file's own layers (see :func:`open_stage`).
+    composes only the file's own layers (see :func:`open_stage`). ``light_speed`` (e.g.
+    ``"299792458m/s"``, ``"2units/timecode"``) overrides the stage's (docs/spec.md §3.1).
     """
+    if isinstance(light_speed, str):
+        light_speed = parse_light_speed(light_speed)
     stage, where = open_stage(source, no_references=no_references)
     reopen = None if isinstance(source, Usd.Stage) else os.path.abspath(os.fspath(source))
-    scene = read_stage(stage, where, reopen=reopen, no_references=no_references)
+    scene = read_stage(stage, where, reopen=reopen, no_references=no_references, light_speed=light_speed)
     for note in scene.diagnostics:
         if note.severity == "warning":
             warnings.warn(note.text(), stacklevel=2)
     return scene
 
 
-def read_stage(stage: Usd.Stage, where: Where, *, reopen: str | None = None, no_references: bool = False) -> Scene:
+def read_stage(stage: Usd.Stage, where: Where, *, reopen: str | None = None, no_references: bool = False,
+               light_speed: LightSpeedSetting | None = None) -> Scene:
     """The :class:`Scene` of an open stage, its diagnostics not emitted (``load_scene`` warns them)."""
     try:
-        return _StageReader(stage, where).read(reopen=reopen, no_references=no_references)
+        return _StageReader(stage, where).read(reopen=reopen, no_references=no_references, light_speed=light_speed)
     except (Tf.ErrorException, UnicodeDecodeError) as exc:  # a value USD cannot unpack outside the traversal
         raise SceneError.at(where.file, None, None, f"cannot be read: {tf_message(exc)}") from None

@@ -22,7 +22,7 @@ from warp_st.usd.attributes import Where
 from warp_st.usd.diagnostics import Notes
 from warp_st.usd.images import ImageError, read_image
 
-__all__ = ["TextureReader", "corner_st"]
+__all__ = ["TextureReader", "corner_st", "one_st", "rgba"]
 
 _CHANNELS = {"rgb": -1, "rgba": -1, "r": 0, "g": 1, "b": 2, "a": 3}
 _WRAP_TOKENS = WRAP_MODES + ("useMetadata",)
@@ -68,7 +68,7 @@ class TextureReader:
             return fallback
         space = self._token(tex, "sourceColorSpace", ("raw", "sRGB", "auto"), "auto")
         try:
-            image = self._image(path, space)
+            image = self.image(path, space)
         except ImageError as exc:
             self.notes.warn(prim, "inputs:file", f"{asset.path} cannot be read ({exc}); the texture's fallback "
                             f"{_shown(fallback)} is used", "MissingTexture")
@@ -81,13 +81,14 @@ class TextureReader:
             wraps.append(mode)
         scale = self._vector(tex, "scale", 4, (1.0, 1.0, 1.0, 1.0))
         bias = self._vector(tex, "bias", 4, (0.0, 0.0, 0.0, 0.0))
-        texels = _rgba(image.texels) * scale.astype(np.float32) + bias.astype(np.float32)
+        texels = rgba(image.texels) * scale.astype(np.float32) + bias.astype(np.float32)
         primvar, st_fallback, transform = self._st(tex)
         return Texture(file=path, texels=texels.astype(np.float32), wrap=(wraps[0], wraps[1]),
                        border=tuple(float(b) for b in bias), channel=_CHANNELS[name], primvar=primvar,
                        st_fallback=st_fallback, st_transform=transform)
 
-    def _image(self, path: str, space: str):
+    def image(self, path: str, space: str):
+        """The decoded image at ``path`` in colour space ``space`` (read once; raises ImageError)."""
         key = (path, space)
         if key not in self._images:
             self._images[key] = read_image(path, space)
@@ -183,7 +184,7 @@ def _shown(values) -> tuple:
     return tuple(float(f"{float(x):.7g}") for x in values)
 
 
-def _rgba(texels: np.ndarray) -> np.ndarray:
+def rgba(texels: np.ndarray) -> np.ndarray:
     """(H, W, C) -> (H, W, 4): grey to rgb, alpha 1 where the file has none."""
     h, w, c = texels.shape
     out = np.ones((h, w, 4), dtype=np.float32)
@@ -194,6 +195,18 @@ def _rgba(texels: np.ndarray) -> np.ndarray:
     else:
         out[..., :min(c, 4)] = texels[..., :4]
     return out
+
+
+def one_st(notes: Notes, prim, textures: list[Texture]) -> None:
+    """A warning when the textures of one surface shader ``prim`` read different st
+    (primvars or UsdTransform2d chains): one st per surface is supported, the first's."""
+    if len({t.primvar for t in textures}) > 1:
+        notes.warn(prim, "inputs", "its textures read different st primvars "
+                   f"({', '.join(sorted({repr(t.primvar) for t in textures}))}); one st per surface is "
+                   f"supported: {textures[0].primvar!r} is used for all", "NotHonoured")
+    elif len({None if t.st_transform is None else t.st_transform.tobytes() for t in textures}) > 1:
+        notes.warn(prim, "inputs", "its textures transform st differently (UsdTransform2d); "
+                   "one st per surface is supported: the first texture's is used for all", "NotHonoured")
 
 
 def corner_st(where: Where, notes: Notes, prim, texture: Texture, n_tri: int, topology) -> np.ndarray:

@@ -400,11 +400,12 @@ def _order(stage) -> dict[str, int]:
     return {str(p.GetPath()): i for i, p in enumerate(Usd.PrimRange(stage.GetPseudoRoot(), PREDICATE))}
 
 
-def validate_stage(stage: Usd.Stage, file: str, *, no_references: bool = False):
+def validate_stage(stage: Usd.Stage, file: str, *, no_references: bool = False, light_speed=None):
     """(problems, scene): every problem of ``stage`` in stage order (duplicates dropped),
     and the :class:`~warp_st.core.scene.Scene` the reader makes of it (None when it cannot).
 
-    ``file`` names the stage in the problems. The validators give the errors; the
+    ``file`` names the stage in the problems; ``light_speed`` overrides its own
+    (docs/spec.md §1.1). The validators give the errors; the
     reader's diagnostics (``Scene.diagnostics``, what ``render`` prints) give the
     warnings and information: when there is an error they come from reading the stage
     with each erroneous attribute masked. When the validators find no error the reader
@@ -432,14 +433,15 @@ def validate_stage(stage: Usd.Stage, file: str, *, no_references: bool = False):
         try:
             with warnings.catch_warnings():  # they are the scene's diagnostics, listed below
                 warnings.simplefilter("ignore")
-                scene = load_scene(stage, no_references=no_references)
+                scene = load_scene(stage, no_references=no_references, light_speed=light_speed)
             notes = scene.diagnostics
         except SceneError as exc:  # it names the stage by its real path
             root = stage.GetRootLayer()
             prim, attribute, message = _parse(str(exc), file, root.realPath, root.identifier)
             problems.append(Problem("error", file, prim, attribute, message, "warpSt:Reader"))
     if notes is None:
-        notes = reader_diagnostics(stage, file, {(p.prim, p.attribute) for p in problems if p.severity == "error"})
+        notes = reader_diagnostics(stage, file, {(p.prim, p.attribute) for p in problems if p.severity == "error"},
+                                   light_speed=light_speed)
     problems += [Problem(d.severity, file, d.prim, d.attribute, d.message, "warpSt:Reader") for d in notes]
     order = _order(stage)
     unique = {(p.severity, p.prim, p.attribute, p.message): p for p in reversed(problems)}  # the first of each
@@ -448,7 +450,7 @@ def validate_stage(stage: Usd.Stage, file: str, *, no_references: bool = False):
     return problems, scene
 
 
-def reader_diagnostics(stage: Usd.Stage, file: str, masked, limit: int = 64) -> tuple:
+def reader_diagnostics(stage: Usd.Stage, file: str, masked, limit: int = 64, light_speed=None) -> tuple:
     """The reader's diagnostics of a stage that has errors: it reads the stage with the
     ``masked`` (prim, attribute) pairs read as unauthored, and again after each SceneError
     with the attribute it names masked too (the prim's whole subtree skipped when that
@@ -462,7 +464,7 @@ def reader_diagnostics(stage: Usd.Stage, file: str, masked, limit: int = 64) -> 
         reader = _StageReader(stage, Where(file))
         token = MASKED.set(frozenset(masked))
         try:
-            reader.read()
+            reader.read(light_speed=light_speed)
             return reader.notes.items()
         except SceneError as exc:
             notes = reader.notes.items()
