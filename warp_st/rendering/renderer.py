@@ -14,7 +14,6 @@ import dataclasses
 import math
 import os
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +28,7 @@ from warp_st.output.cryptomatte import image_layers, resolve_layers
 from warp_st.output.film import Image, quantize_time
 from warp_st.rendering import database_cache
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
+from warp_st.rendering.tile_pool import tile_pool
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.animation import animated_bodies, animation_cuts
@@ -482,7 +482,7 @@ class Renderer:
             for tile in tiles:
                 launch(tile)
         else:
-            list(_tile_pool(n_threads).map(launch, tiles))
+            list(tile_pool(n_threads).map(launch, tiles))
         kernel_seconds = time.perf_counter() - t_kernel
         if film.overflow.numpy()[0]:
             raise RuntimeError("BVH traversal stack overflow: the image would be wrong (please report)")
@@ -552,19 +552,6 @@ class Renderer:
                 **self.scene.header(),  # metersPerUnit, timeCodesPerSecond
             },
         )
-
-
-_POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
-
-
-def _tile_pool(n_threads: int) -> ThreadPoolExecutor:
-    """This process's pool of ``n_threads`` tile threads, kept between frames (starting the
-    threads cost ~10 ms a frame); a forked child makes its own."""
-    key = (os.getpid(), n_threads)
-    pool = _POOLS.get(key)
-    if pool is None:
-        pool = _POOLS[key] = ThreadPoolExecutor(max_workers=n_threads, thread_name_prefix="warp-st-tiles")
-    return pool
 
 
 def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fine: bool = True,
