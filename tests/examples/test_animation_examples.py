@@ -1,14 +1,19 @@
 """The animated example stages (examples/animation/, issue 18) load, show their body and
 move it as authored.
 
-Law: on the wheel rolling at 0.8c and the moon orbiting at 0.8c every hit pixel of the
-animated body carries the Doppler factor of its pivot's velocity, D = 1 / (gamma (1 + n.v))
-for a camera at rest (docs/spec.md §1; n the pixel's lab direction), v USD's pivot velocity
-at the event time (a central difference of ComputeLocalToWorldTransform): the rolling
-wheel's constant (0.8, 0, 0), the orbit's tangent of speed 0.8. Tolerance: a piece moves
-along its chord, whose direction is within half the piece's turn theta of the tangent, so
-|dD| <= D^2 gamma |v| theta / 2 (10 % margin for the chord's shorter length, second order)
-plus float32 rounding (1e-5); theta is 0 for the wheel's straight path.
+Law: on the wheel rolling at 0.45c and the moon orbiting at 0.8c every hit pixel of the
+animated body carries the Doppler factor of its own point's velocity (docs/spec.md §2.1),
+D = 1 / (gamma_u (1 + n.u)) for a camera at rest (§1; n the pixel's lab direction; gamma_u
+1 for the decoupled moon), u what USD's animation gives the material point at the hit event
+(t, x): with o(t) the pivot and L(t) the linear part of M(t_s)^-1 M(t) (central differences
+of ComputeLocalToWorldTransform), r = (x - o) A^-1 L^-1 and u = o' + r L' A (row vectors,
+A the contraction of o', I decoupled). The wheel's contact point is at rest, its top at 0.9c.
+Tolerance per pixel: |dD| <= |grad_u D| |du| + 1e-5 D (float32), |du| the sum of: a piece
+moves along its chord, within half its turn theta of the tangent (1.1 |v| theta / 2, 10 %
+for the chord's shorter length) and within R_orbit theta^2 / 8 of the circle (times the
+moon's own turn rate, as an error of x - o); the turn part is omega x r within 5e-5
+relative (tan(delta)/delta at the probes' spacing plus their interpolation tolerance:
+tests/rendering/test_rotational_doppler.py). theta is 0 for the wheel's straight path.
 """
 from pathlib import Path
 
@@ -17,42 +22,65 @@ import pytest
 from pxr import Usd, UsdGeom
 
 import warp_st
+from warp_st.core import lorentz
+from warp_st.core.lorentz import contraction_matrix
 from warp_st.rendering.camera import pixel_directions
 from warp_st.rendering.renderer import Renderer
+
+from animation_stages import hit_events
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "animation"
 W, H = 96, 54
 
 
-@pytest.mark.parametrize("name, prim, frame", [("rolling_wheel", "/Wheel", 56.0),
-                                               ("circular_orbit", "/Orbit/Moon", 40.0)])
-def test_animated_pixels_carry_their_pivot_doppler(name, prim, frame):
+def _usd_point_velocity(stage, prim, t, x, decoupled, step=1e-4):
+    """u of the module docstring for the hit event (t, x)."""
+    xformable = UsdGeom.Xformable(stage.GetPrimAtPath(prim))
+
+    def world(time):
+        return np.array(xformable.ComputeLocalToWorldTransform(Usd.TimeCode(float(time))), dtype=np.float64)
+
+    start = np.linalg.inv(world(stage.GetStartTimeCode()))
+    pivot = world(t)[3, :3]
+    velocity = (world(t + step)[3, :3] - world(t - step)[3, :3]) / (2 * step)
+    linear = (start @ world(t))[:3, :3]
+    rate = ((start @ world(t + step)) - (start @ world(t - step)))[:3, :3] / (2 * step)
+    a = contraction_matrix(velocity, decoupled)
+    r = (x - pivot) @ np.linalg.inv(a) @ np.linalg.inv(linear)
+    return velocity, velocity + r @ rate @ a
+
+
+@pytest.mark.parametrize("name, prim, frame, speed", [("rolling_wheel", "/Wheel", 56.0, 0.45),
+                                                      ("circular_orbit", "/Orbit/Moon", 40.0, 0.8)])
+def test_animated_pixels_carry_their_points_doppler(name, prim, frame, speed):
     path = str(EXAMPLES / f"{name}.usda")
     scene = warp_st.load(path)
     index = scene.body_paths().index(prim)
+    body = scene.bodies[index]
     renderer = Renderer(scene, frames=[frame], width=W, height=H)
     image = renderer.render(frame)
     (cuts,) = [rows for i, rows in renderer.animation if i == index]
-    spin = 0.8 / 5.0 if name == "circular_orbit" else 0.0  # the orbit's turn rate, rad per time
+    spin = speed / 5.0 if name == "circular_orbit" else 0.0  # the orbit's turn rate, rad per time
     theta = spin * float(np.diff([row[0] for row in cuts]).max())
     mine = image.object_id == index + 1
     assert mine.sum() > 30
-    cam = scene.camera_state(None, frame)
-    n = pixel_directions(cam, W, H, frame="lab")[mine]
+    times, points, _s = hit_events(scene, image, frame, W, H)
+    hit = image.object_id[image.object_id > 0] == index + 1
+    n = pixel_directions(scene.camera_state(None, frame), W, H, frame="lab")[mine]
     stage = Usd.Stage.Open(path)
-    xformable = UsdGeom.Xformable(stage.GetPrimAtPath(prim))
-    step = 1e-4
-    velocities = []
-    for t in image.event_time[mine].astype(np.float64):
-        a = np.array(xformable.ComputeLocalToWorldTransform(Usd.TimeCode(t - step)))[3, :3]
-        b = np.array(xformable.ComputeLocalToWorldTransform(Usd.TimeCode(t + step)))[3, :3]
-        velocities.append((b - a) / (2 * step))
-    v = np.array(velocities)
-    assert np.allclose(np.linalg.norm(v, axis=1), 0.8, atol=1e-6)
-    expected = np.sqrt(1.0 - 0.64) / (1.0 + np.einsum("ij,ij->i", n, v))
-    gamma = 1.0 / np.sqrt(1.0 - 0.64)
-    bound = 1.1 * expected ** 2 * gamma * 0.8 * theta / 2.0 + 1e-5
-    assert (np.abs(image.doppler[mine] - expected) <= bound).all()
+    pairs = [_usd_point_velocity(stage, prim, t, x, body.decoupled) for t, x in zip(times[hit], points[hit])]
+    v, u = (np.array(column) for column in zip(*pairs))
+    assert np.allclose(np.linalg.norm(v, axis=1), speed, atol=1e-6)
+    expected = lorentz.doppler(n, u, body_decoupled=body.decoupled)
+    g2 = 1.0 if body.decoupled else 1.0 / (1.0 - np.einsum("ij,ij->i", u, u))
+    grad = expected * np.linalg.norm(g2[:, None] * u * (0.0 if body.decoupled else 1.0)
+                                     + n / (1.0 + np.einsum("ij,ij->i", n, u))[:, None], axis=1)
+    du = 1.1 * speed * theta / 2.0 + spin * 5.0 * theta ** 2 / 8.0 + 5e-5 * np.linalg.norm(u - v, axis=1)
+    bound = grad * du + 1e-5 * expected
+    err = np.abs(image.doppler[mine] - expected)
+    assert (err <= bound).all(), float((err / bound).max())
+    if name == "rolling_wheel":  # the top (0.9c) and the contact point (at rest) are seen
+        assert np.linalg.norm(u, axis=1).max() > 0.85 and np.linalg.norm(u, axis=1).min() < 0.1
 
 
 def test_spinning_rod_is_seen_and_its_pivot_rests():

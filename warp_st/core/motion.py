@@ -9,7 +9,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["BodyMotion"]
+from warp_st.core.lorentz import contraction_matrix
+
+__all__ = ["BodyMotion", "velocity_gradient"]
+
+
+def velocity_gradient(linear: np.ndarray, rate: np.ndarray, velocity: np.ndarray, decoupled: bool) -> np.ndarray:
+    """W, (3, 3), column vectors: the velocity relative to the pivot of the body point at
+    offset y from it is W y, for a body held at y = r L A (row vectors, r the authored
+    offset, A = A(velocity) of §2, I decoupled) while L changes at ``rate`` = dL/dt:
+    r L' A = y A^-1 L^-1 L' A, so W = (A^-1 L^-1 L' A)^T (docs/spec.md §2.1, Doppler)."""
+    a = contraction_matrix(velocity, decoupled)
+    return (np.linalg.solve(a, np.linalg.solve(linear, rate)) @ a).T
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,3 +60,19 @@ class BodyMotion:
     def chord_velocities(self) -> np.ndarray:
         """The pivot's velocity between neighbouring probes, (N - 1, 3)."""
         return np.diff(self.pivot, axis=0) / np.diff(self.times)[:, None]
+
+    def point_speeds(self, points: np.ndarray, decoupled: bool) -> np.ndarray:
+        """The largest lab speed of the body points ``points`` (authored at the start time
+        code, (P, 3)) in each probe interval, (N - 1,): between probes a point moves with
+        v_k + (p - o(t_s)) L'_k A(v_k), v_k the chord velocity and L'_k the interval's
+        constant rate of L (the probes' linear interpolation)."""
+        r = np.asarray(points, dtype=np.float64).reshape(-1, 3) - self.static_pivot
+        v = self.chord_velocities()
+        rate = np.diff(self.linear, axis=0) / np.diff(self.times)[:, None, None]
+        out = np.linalg.norm(v, axis=1)
+        if not len(r):
+            return out
+        for k in range(len(v)):
+            u = v[k] + r @ (rate[k] @ contraction_matrix(v[k], decoupled))
+            out[k] = float(np.sqrt(np.einsum("ij,ij->i", u, u).max()))
+        return out

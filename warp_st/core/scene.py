@@ -173,6 +173,9 @@ class Body:
     lifetime: lab times (tBegin, tEnd); +-inf when unbounded.
     motion: a ``warp_st.core.motion.BodyMotion`` when USD animates the body (docs/spec.md
         §2.1; ``velocity`` is then only its held part), else None.
+    spin: the lab velocity gradient W about the moving pivot, (3, 3), column vectors: the
+        body point at x at lab time t moves with velocity + W (x - o - velocity (t -
+        reference_time)) (an animated body's piece that turns, docs/spec.md §2.1); None: 0.
     """
 
     prim_path: str
@@ -183,6 +186,7 @@ class Body:
     lifetime: tuple[float, float] = (-np.inf, np.inf)
     decoupled: bool = False
     motion: object = None
+    spin: object = None
 
     @property
     def speed(self) -> float:

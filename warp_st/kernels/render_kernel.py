@@ -61,7 +61,7 @@ def _make_render(scalar, k, trace, Geometry):
     vec3, vec4 = k.vec3, k.vec4
     FAR = 1.0e30
     INV_PI = 0.3183098861837907  # 1/pi (a cast of an expression would be evaluated in float32)
-    Shading, self_eps, shading_normal, shade, reflect_null = make_shade(scalar, vec3, vec4, Geometry, trace)
+    Shading, self_eps, shading_normal, shade, reflect_null, point_velocity = make_shade(scalar, vec3, vec4, Geometry, trace)
     doppler_transform = make_spectrum(scalar, vec3)
     _textures, surface_inputs = make_textures(scalar)
     _sky, sky_radiance, sky_irradiance = make_sky(scalar)
@@ -220,8 +220,9 @@ def _make_render(scalar, k, trace, Geometry):
             mat = shd.tri_material[tri]
             diffuse, emissive, metal = surface_inputs(shd.tex, prim, tri, lam, mat, shd.mat_diffuse[mat],
                                                       shd.mat_emissive[mat], shd.mat_metallic[mat])
-            normal = shading_normal(geo, shd, prim, lam, n)
             body = shd.tri_body[tri]
+            u, gamma_u = point_velocity(shd, body, event)  # the emitting point's own velocity
+            normal = shading_normal(geo, shd, prim, lam, n, u)
             if metal < scalar(1.0):
                 local = shade(geo, shd, finite, prim, path, event, normal, diffuse, emissive)
                 if shd.sky.present != 0:  # the dome's diffuse light (no shadowing), instead of the unlit albedo
@@ -230,7 +231,7 @@ def _make_render(scalar, k, trace, Geometry):
                         local = emissive + lit
                     else:
                         local = local + lit
-                ub = four_velocity(shd.body_velocity[body], shd.body_gamma[body], shd.body_decoupled[body])
+                ub = four_velocity(u, gamma_u, shd.body_decoupled[body])
                 body_term = ub[0]
                 if finite != 0:
                     body_term = ub[0] + n[0] * ub[1] + n[1] * ub[2] + n[2] * ub[3]
@@ -243,7 +244,7 @@ def _make_render(scalar, k, trace, Geometry):
                     source_t = event[0]
                     source_bounces = bounces
                 break
-            v_mirror = shd.body_velocity[body]
+            v_mirror = u
             ok, n_out = reflect_null(n, normal, v_mirror, finite)
             # An interpolated normal can send a grazing reflection into the facet's own
             # plane (it would re-enter a convex mirror): reflect about the facet then.
@@ -381,7 +382,8 @@ def _make_render(scalar, k, trace, Geometry):
 
         # D = (k.u_cam)/(k.u_body), k = (1, -n): -k.u = u_t + n.u_x. With infinite
         # light speed only time dilation is left: the limit is u_cam_t / u_body_t.
-        ub = four_velocity(v, shd.body_gamma[body], dec)
+        u, gamma_u = point_velocity(shd, body, event)  # the emitting point's (docs/spec.md §2.1)
+        ub = four_velocity(u, gamma_u, dec)
         uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
         dop = uc[0] / ub[0]
         if cam.finite != 0:

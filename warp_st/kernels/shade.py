@@ -18,6 +18,10 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
     # event: in float32 1e-4 is ~1000 ulps, far above the rounding of the hit.
     SELF_EPS = 1.0e-4 if wp.types.type_size_in_bytes(scalar) == 4 else 1.0e-9
     FAR = 1.0e30
+    # A turning coupled body's points are below c (the reader refuses faster ones, checking
+    # the vertices); a hit between them may exceed that by rounding: 1 - |u|^2 is kept >= this.
+    MIN_INV_GAMMA2 = 1.0e-12
+    mat33 = wp.types.matrix((3, 3), scalar)
     Textures, _inputs = make_textures(scalar)
     Sky, _radiance, _irradiance = make_sky(scalar)
     Track, light_linear_at, emission_event = make_light_track(scalar)
@@ -38,6 +42,8 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         body_velocity: wp.array(dtype=vec3)
         body_gamma: wp.array(dtype=scalar)
         body_decoupled: wp.array(dtype=wp.int32)
+        body_spins: wp.array(dtype=wp.int32)  # 1: the body turns (an animated piece), its points move with
+        body_spin: wp.array(dtype=mat33)  # v + W (x - o(t)), W = Body.spin (docs/spec.md §2.1)
         light_kind: wp.array(dtype=wp.int32)  # 0 sphere (radius 0: point), 1 distant, 2 area (rect, disk)
         light_pos: wp.array(dtype=vec3)
         light_dir: wp.array(dtype=vec3)
@@ -61,13 +67,28 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         return scalar(SELF_EPS) * (scalar(1.0) + wp.abs(path))
 
     @wp.func
-    def shading_normal(geo: Geometry, shd: Shading, prim: int, lam: vec4, n: vec3) -> vec3:
+    def point_velocity(shd: Shading, body: int, event: vec4):
+        """(u, its gamma): the lab velocity of ``body``'s point at ``event`` (relative to
+        the render origin), u = v + W (x - o(t)) with o(t) = o + v (t - t_ref) the pivot;
+        a body that does not turn gives (v, its gamma) as is. Decoupled: gamma 1."""
+        v = shd.body_velocity[body]
+        g = shd.body_gamma[body]
+        if shd.body_spins[body] != 0:
+            bo = shd.body_origin[body]
+            y = vec3(event[1] - bo[1], event[2] - bo[2], event[3] - bo[3]) - v * (event[0] - bo[0])
+            v = v + shd.body_spin[body] * y
+            if shd.body_decoupled[body] == 0:
+                g = scalar(1.0) / wp.sqrt(wp.max(scalar(1.0) - wp.dot(v, v), scalar(MIN_INV_GAMMA2)))
+        return v, g
+
+    @wp.func
+    def shading_normal(geo: Geometry, shd: Shading, prim: int, lam: vec4, n: vec3, v: vec3) -> vec3:
         """Unit normal at the hit, on the side the light to the camera leaves from.
 
         Smooth triangles interpolate vertex normals with the hit's barycentrics; an
         analytic hit (4th barycentric ANALYTIC, ``trace_rigid``) carries its own.
-        Relative to a surface moving with v the photon (spatial direction -n) moves as
-        -(n + v), which picks the side of a two-sided surface.
+        Relative to a surface point moving with v (``point_velocity``) the photon (spatial
+        direction -n) moves as -(n + v), which picks the side of a two-sided surface.
         """
         tri = geo.prim_tri[prim]
         normal = shd.tri_normal[tri]
@@ -83,7 +104,6 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
             )
             if wp.length(sm) > scalar(0.0):
                 normal = wp.normalize(sm)
-        v = shd.body_velocity[shd.tri_body[tri]]
         if wp.dot(normal, n + v) > scalar(0.0):
             normal = -normal
         return normal
@@ -229,4 +249,4 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
             return 0, n
         return 1, wp.normalize(k_x / (-k_t))
 
-    return Shading, self_eps, shading_normal, shade, reflect_null
+    return Shading, self_eps, shading_normal, shade, reflect_null, point_velocity

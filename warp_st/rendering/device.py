@@ -58,6 +58,11 @@ class ShadingTables:
         self.body_decoupled = wp.array(
             np.array([1 if b.decoupled else 0 for b in bodies], dtype=np.int32), dtype=wp.int32, device=_DEVICE
         )
+        spins = [np.zeros((3, 3)) if b.spin is None else np.asarray(b.spin, dtype=np.float64) for b in bodies]
+        self.body_spins = wp.array(np.array([b.spin is not None for b in bodies], dtype=np.int32), dtype=wp.int32,
+                                   device=_DEVICE)
+        self.body_spin = wp.array(np.array(spins, dtype=np_scalar).reshape(-1, 3, 3),
+                                  dtype=wp.types.matrix((3, 3), k.scalar), device=_DEVICE)
         self.body_events = np.array([[b.reference_time, *b.origin] for b in bodies], dtype=np.float64).reshape(-1, 4)
         # An animated body's pieces (spacetime/animation.py) keep its prim path: one object.
         first = {}
@@ -165,6 +170,8 @@ def make_shading(
     s.body_velocity = static.body_velocity
     s.body_gamma = static.body_gamma
     s.body_decoupled = static.body_decoupled
+    s.body_spins = static.body_spins
+    s.body_spin = static.body_spin
     kinds = np.array([_LIGHT_KIND[l.kind] for l in lights], dtype=np.int32)
     pos = np.array([l.position for l in lights], dtype=np.float64).reshape(-1, 3) - origin[1:]
     dirs = np.array([l.direction for l in lights], dtype=np.float64).reshape(-1, 3)

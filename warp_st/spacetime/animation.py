@@ -25,6 +25,7 @@ import dataclasses
 import numpy as np
 
 from warp_st.core.lorentz import contraction_matrix
+from warp_st.core.motion import velocity_gradient
 from warp_st.core.scene import Body, Scene
 from warp_st.spacetime.adaptive import _camera_stretch, min_pixel_angle
 
@@ -214,6 +215,7 @@ def piece_bodies(body: Body, cuts: tuple[tuple[float, float, float], ...]) -> li
         a, b = times[k], times[k + 1]
         spans.append((rows[k + 1, 1], b, a, p[k], (p[k + 1] - p[k]) / (b - a), mid[k]))
     spans.append((times[-1], np.inf, times[-1], p[-1], m.hold_velocity, m.linear[-1]))
+    spins = [None] + [_spin(m, t_o, spans[k + 1][4], body.decoupled) for k, t_o in enumerate(rows[1:, 2])] + [None]
     inv_gamma = [1.0 if body.decoupled else float(np.sqrt(max(1.0 - float(v @ v), 0.0))) for *_, v, _l in spans]
     # F(t) = integral of dt / gamma from t[0]: at each span's anchor time (its start, the
     # first span's end), then shifted so that F(t_ref) = 0.
@@ -227,7 +229,7 @@ def piece_bodies(body: Body, cuts: tuple[tuple[float, float, float], ...]) -> li
                   if (s[0] if q == 0 else s[2]) <= t_ref <= s[1]), 0.0)
     pieces = []
     life_lo, life_hi = body.lifetime
-    for (lo, hi, t_anchor, o_anchor, v, linear), g, f in zip(spans, inv_gamma, anchor_f):
+    for (lo, hi, t_anchor, o_anchor, v, linear), g, f, spin in zip(spans, inv_gamma, anchor_f, spins):
         lo, hi = max(lo, life_lo), min(hi, life_hi)
         if not lo < hi:
             continue
@@ -237,8 +239,21 @@ def piece_bodies(body: Body, cuts: tuple[tuple[float, float, float], ...]) -> li
         shift = origin - m.static_pivot @ linear
         pieces.append(dataclasses.replace(body, surfaces=tuple(_moved(s, linear, shift) for s in body.surfaces),
                                           origin=origin, velocity=np.asarray(v, dtype=np.float64).copy(),
-                                          reference_time=float(ref), lifetime=(float(lo), float(hi)), motion=None))
+                                          reference_time=float(ref), lifetime=(float(lo), float(hi)), motion=None,
+                                          spin=spin))
     return pieces
+
+
+def _spin(m, t_o: float, velocity: np.ndarray, decoupled: bool):
+    """A piece's ``Body.spin`` (``core.motion.velocity_gradient``), None when it does not
+    turn: L and its rate at the middle of the probe interval holding the piece's orientation
+    time t_o, (L_k + L_k+1) / 2 and (L_k+1 - L_k) / dt. For rotation about a fixed axis by
+    2 delta over the interval that is omega x (x - o) times tan(delta) / delta (within
+    delta^2 / 3, ~1e-5 at the probes' spacing), whatever orientation the piece holds."""
+    k = int(np.clip(np.searchsorted(m.times, t_o, side="right") - 1, 0, len(m.times) - 2))
+    rate = (m.linear[k + 1] - m.linear[k]) / (m.times[k + 1] - m.times[k])
+    middle = 0.5 * (m.linear[k] + m.linear[k + 1])
+    return velocity_gradient(middle, rate, velocity, decoupled) if np.any(rate) else None
 
 
 def animated_bodies(scene: Scene, cuts: tuple) -> tuple[tuple[Body, ...], np.ndarray]:

@@ -147,6 +147,7 @@ class _StageReader:
             check_prim(self.notes, settings_prim, self.where.time)
         for body in self.bodies:
             self._deforming_body(body)
+            self._check_points(body)
         bodies = tuple(b.build() for b in self.bodies if b.surfaces)
         cameras = tuple(self.cameras)
         framing = None
@@ -357,9 +358,23 @@ class _StageReader:
         if not samples:
             return
         body.motion = sample_motion(self.where, prim, body.velocity, body.reference_time, samples)
-        if body.decoupled:
+        if not body.decoupled:
+            self._superluminal(body, prim, samples, np.linalg.norm(body.motion.chord_velocities(), axis=1),
+                               "the animated pivot")
+
+    def _check_points(self, body: _BodyBuilder) -> None:
+        """A turning coupled body whose points (its vertices) move at >= c is treated as a
+        pivot at >= c is (``_animate``): the velocity of a point is its own (§2.1, Doppler)."""
+        if body.decoupled or body.motion is None or not body.surfaces:
             return
-        speeds = np.linalg.norm(body.motion.chord_velocities(), axis=1)
+        prim = self.stage.GetPrimAtPath(body.prim_path)
+        points = np.concatenate([np.asarray(s.points, dtype=np.float64).reshape(-1, 3) for s in body.surfaces])
+        self._superluminal(body, prim, xform_sample_times(prim), body.motion.point_speeds(points, False),
+                           "a point of the animated body")
+
+    def _superluminal(self, body: _BodyBuilder, prim, samples, speeds: np.ndarray, what: str) -> None:
+        """Bad input (SpacetimeBodyAPI) or a warning and decoupled (a body of its own) when
+        ``speeds`` (per probe interval) reach c."""
         if not speeds.size or not float(speeds.max()) >= 1.0:
             return
         k = int(np.argmax(speeds))
@@ -368,7 +383,7 @@ class _StageReader:
         hi = min(s for s in samples if s >= t[k + 1])
         owner, op = animated_op(prim)  # the attribute at fault: the xformOp that moves the body
         whose = "" if owner == prim else f" of {prim.GetPath()}"
-        message = (f"the animated pivot{whose} moves at {float(speeds[k]):.6g} c between time codes {lo:g} and "
+        message = (f"{what}{whose} moves at {float(speeds[k]):.6g} c between time codes {lo:g} and "
                    f"{hi:g} (>= the speed of light)")
         if body.api:
             raise self.where.error(owner, op, f"{message} on a Lorentz-coupled body; slow the animation "
