@@ -46,6 +46,7 @@ def Camera "Cam"
     double3 xformOp:translate = (0, 10, 0)
     float xformOp:rotateX = -90
     uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateX"]
+    custom token spacetime:lightSpeed = "finite"
 }
 def Mesh "Floor"
 {

@@ -16,8 +16,10 @@ from warp_st.usd.reader import load_scene
 
 def _load(tmp_path, body):
     path = tmp_path / "lights.usda"
+    # c = 1 stage unit per time code (docs/spec.md §1.1): the speeds below are in those units
     path.write_text("#usda 1.0\n(\n    startTimeCode = 0\n    endTimeCode = 10\n)\n" + textwrap.dedent(body)
-                    + '\ndef Sphere "Ball" {}\n')
+                    + '\ndef Sphere "Ball" {}\n'
+                    + 'def RenderSettings "Settings" {\n    double spacetime:lightSpeedUnitsPerTimeCode = 1\n}\n')
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         scene = load_scene(str(path))
