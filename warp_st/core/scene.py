@@ -168,6 +168,10 @@ class Body:
     lifetime: lab times (tBegin, tEnd); +-inf when unbounded.
     motion: a ``warp_st.core.motion.BodyMotion`` when USD animates the body (docs/spec.md
         §2.1; ``velocity`` is then only its held part), else None.
+    piece_linear: for a piece of an animated body (``spacetime.animation.piece_bodies``),
+        the linear part L its surfaces were moved by from the body's static ones (row
+        vectors: piece points - origin = (static points - static pivot) L), (3, 3); the
+        rigid path shares one bottom level among a body's pieces through it. Else None.
     """
 
     prim_path: str
@@ -178,6 +182,7 @@ class Body:
     lifetime: tuple[float, float] = (-np.inf, np.inf)
     decoupled: bool = False
     motion: object = None
+    piece_linear: object = None
 
     @property
     def speed(self) -> float:
