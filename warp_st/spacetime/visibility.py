@@ -29,7 +29,7 @@ import numpy as np
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Body, CameraState, Scene, surface_triangles
 
-__all__ = ["body_ball", "body_pieces", "frame_window", "hull", "intervals", "union", "intersection", "span",
+__all__ = ["body_ball", "body_pieces", "frame_window", "frame_windows", "hull", "intervals", "union", "intersection", "span",
            "visibility_windows"]
 
 #: Cap on how far into the past a window may reach when the bound is unbounded
@@ -57,12 +57,36 @@ def body_pieces(body: Body) -> list[tuple[np.ndarray, float]]:
     spatial clusters, each ball holding its triangles' vertices (so their whole
     triangles). A body with an analytic sphere (re-tessellated at render time) stays
     one piece, ``body_ball``."""
+    return _body_pieces(body, {})
+
+
+def _body_pieces(body: Body, clusters: dict) -> list[tuple[np.ndarray, float]]:
+    """``body_pieces``; the pieces of an animated body (``Body.piece_linear``: turned
+    copies of one triangle set) reuse the first one's clusters (``clusters``, by prim
+    path and triangle count): any clusters give balls that hold the body."""
     if not body.surfaces or any(s.sphere is not None for s in body.surfaces):
         return [body_ball(body)]
     A = contraction_matrix(body.velocity, body.decoupled)
     tri = np.concatenate([((s.points - body.origin) @ A.T + body.origin)[surface_triangles(s)] for s in body.surfaces])
     if len(tri) == 0:
         return [body_ball(body)]
+    key = (body.prim_path, len(tri))
+    if body.piece_linear is None:
+        order, starts = _clusters(tri)
+    else:
+        if key not in clusters:
+            clusters[key] = _clusters(tri)
+        order, starts = clusters[key]
+    pts = tri[order].reshape(-1, 3)
+    lo, hi = np.minimum.reduceat(pts, 3 * starts), np.maximum.reduceat(pts, 3 * starts)
+    m0 = 0.5 * (lo + hi)
+    d2 = ((pts - np.repeat(m0, 3 * np.diff(np.append(starts, len(order))), axis=0)) ** 2).sum(axis=1)
+    return [(m, float(r)) for m, r in zip(m0, np.sqrt(np.maximum.reduceat(d2, 3 * starts)))]
+
+
+def _clusters(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``body_pieces``' clusters of triangles ``tri`` (T, 3, 3): the triangle indices in
+    cluster order and each cluster's first position in it."""
     pieces = [np.arange(len(tri))]
     while len(pieces) < _MAX_PIECES:
         extent = [float(np.ptp(tri[p].reshape(-1, 3), axis=0).max()) if len(p) > 1 else 0.0 for p in pieces]
@@ -73,12 +97,7 @@ def body_pieces(body: Body) -> list[tuple[np.ndarray, float]]:
         centre = tri[p].mean(axis=1)
         order = p[np.argsort(centre[:, int(np.argmax(np.ptp(centre, axis=0)))], kind="stable")]
         pieces += [order[: len(order) // 2], order[len(order) // 2:]]
-    out = []
-    for p in pieces:
-        pts = tri[p].reshape(-1, 3)
-        m0 = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
-        out.append((m0, float(np.sqrt(((pts - m0) ** 2).sum(axis=1).max()))))
-    return out
+    return np.concatenate(pieces), np.cumsum([0] + [len(p) for p in pieces[:-1]])
 
 
 def _solve_h(w: np.ndarray, v: np.ndarray, k: float) -> np.ndarray:
@@ -125,6 +144,52 @@ def frame_window(m0, rho, v, t_ref, t_c, c, *, infinite=False, extra=0.0):
     if len(roots) == 0:
         return None
     return (float(roots[0] + t_ref), float(min(roots[-1] + t_ref, t_c + rho)))
+
+
+def _largest_root(ww, wv, vv, k):
+    """``_solve_h``'s largest root per row (NaN where none), for rows with |v| < 1."""
+    a = vv - 1.0
+    b = 2.0 * (wv + k)
+    c = ww - k * k
+    disc = b * b - 4.0 * a * c
+    sq = np.sqrt(np.maximum(disc, 0.0))
+    q = np.where(b != 0.0, -0.5 * (b + np.copysign(sq, b)), -0.5 * sq)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r1 = q / a
+        r2 = np.where(q != 0.0, c / q, r1)
+    tol = 1e-9 * (1.0 + np.abs(k))
+    r1 = np.where(k - r1 >= -tol, r1, -np.inf)
+    r2 = np.where(k - r2 >= -tol, r2, -np.inf)
+    best = np.maximum(r1, r2)
+    return np.where((disc >= 0.0) & (best > -np.inf), best, np.nan)
+
+
+def frame_windows(m0, rho, v, t_ref, t_c, c, *, infinite=False, extra=0.0):
+    """``frame_window`` over rows broadcast together (bodies for one camera, or cameras
+    for one body): (lo, hi) arrays, NaN where it returns None."""
+    m0, v, c = (np.asarray(x, dtype=np.float64) for x in (m0, v, c))
+    rho, t_ref, t_c = (np.asarray(x, dtype=np.float64) for x in (rho, t_ref, t_c))
+    n = np.broadcast_shapes(m0.shape[:-1], v.shape[:-1], c.shape[:-1], rho.shape, t_ref.shape, t_c.shape)
+    m0, v, c = (np.broadcast_to(x, n + (3,)) for x in (m0, v, c))
+    rho, t_ref, t_c = (np.broadcast_to(x, n) for x in (rho, t_ref, t_c))
+    if infinite:
+        pad = np.maximum(rho, 1.0)
+        return t_c - pad, t_c + pad
+    w = m0 - c
+
+    def dot(x, y):
+        return x[..., 0] * y[..., 0] + x[..., 1] * y[..., 1] + x[..., 2] * y[..., 2]
+
+    ww, wv, vv = dot(w, w), dot(w, v), dot(v, v)
+    lo = _largest_root(ww, wv, vv, t_c - rho - extra - t_ref)
+    hi = _largest_root(ww, wv, vv, t_c + rho - t_ref)
+    lo = np.where(np.isnan(lo), -np.inf, lo + t_ref)
+    hi = np.minimum(np.where(np.isnan(hi), t_c, hi + t_ref), t_c + rho)
+    # |v| >= 1 (or within rounding of it): the scalar rule, row by row (rare).
+    for i in zip(*np.nonzero((vv >= 1.0) | (np.abs(vv - 1.0) < 1e-12))):
+        win = frame_window(m0[i], rho[i], v[i], t_ref[i], t_c[i], c[i], extra=extra)
+        lo[i], hi[i] = (np.nan, np.nan) if win is None else win
+    return lo, hi
 
 
 def hull(a, b):
@@ -185,15 +250,19 @@ def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bo
     a body is never visible.
     """
     balls = [body_ball(b) for b in scene.bodies]
-    pieces = [body_pieces(b) for b in scene.bodies] if scene.lights else None
+    clusters: dict = {}
+    pieces = [_body_pieces(b, clusters) for b in scene.bodies] if scene.lights else None
     ends = [[cam, cam.advanced(shutter)] if shutter > 0.0 else [cam] for cam in cameras]
+    m0s = np.array([m for m, _ in balls], dtype=np.float64).reshape(-1, 3)
+    rhos = np.array([r for _, r in balls], dtype=np.float64)
+    vs = np.array([b.velocity for b in scene.bodies], dtype=np.float64).reshape(-1, 3)
+    t_refs = np.array([b.reference_time for b in scene.bodies], dtype=np.float64)
     direct = []
     for cam_ends in ends:
         row = [None] * len(scene.bodies)
         for cam in cam_ends:
-            row = [hull(w, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position,
-                                        infinite=infinite))
-                   for w, body, (m0, rho) in zip(row, scene.bodies, balls)]
+            lo, hi = frame_windows(m0s, rhos, vs, t_refs, cam.time, cam.position, infinite=infinite)
+            row = [w if a != a else hull(w, (a, b)) for w, a, b in zip(row, lo.tolist(), hi.tolist())]  # NaN: None
         direct.append(row)
     out = [None] * len(scene.bodies)
     for group in _camera_groups(cameras, direct):
@@ -308,10 +377,12 @@ def _mirror_reach(scene, balls, windows, cameras, mirrors) -> float:
 def _seen(body, m0, rho, win, cameras, infinite, extra):
     """``win`` widened to every time the cameras can see the ball (m0, rho) of ``body``
     at, through mirrors too (``extra``, see ``_mirror_reach``)."""
-    for cam in cameras:
-        win = hull(win, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position,
-                                     infinite=infinite, extra=extra))
-    return win
+    if not cameras:
+        return win
+    lo, hi = frame_windows(m0, rho, body.velocity, body.reference_time, [cam.time for cam in cameras],
+                           [cam.position for cam in cameras], infinite=infinite, extra=extra)
+    seen = ~np.isnan(lo)
+    return hull(win, (float(lo[seen].min()), float(hi[seen].max()))) if seen.any() else win
 
 
 def _extend_for_shadows(scene, balls, pieces, windows, cameras, infinite, extra):
