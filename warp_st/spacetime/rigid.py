@@ -57,6 +57,7 @@ class RigidShapes(TriangleTables):
         quadric_centre / quadric_param: the shape is the canonical solid of that code in
         q = quadric_inv (r - quadric_centre), r in the shape frame's coordinates, with
         (radius, half height, 0), (B, 3, 3), (B, 3), (B, 3) (identity, zeros otherwise).
+    tri_st: as ``TriangleTables`` says, but empty, (0, 3, 2), when no material is textured.
     body_mapped: 1 where the body's shape is held in other coordinates than its frame's,
         (B,) int32: the pieces of an animated body share one shape, the body's unrotated
         rest shape (``Body.piece_linear``), and a ray r(s) in the piece's frame
@@ -261,6 +262,8 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
         start_lo[members] = rest_lo[members].min(axis=0)
         start_hi[members] = rest_hi[members].max(axis=0)
 
+    textured = any(t is not None for m in materials for t in m.textures)
+
     def cat(name, shape, dtype):
         parts = tables[name]
         return np.concatenate(parts).astype(dtype) if parts else np.zeros(shape, dtype)
@@ -275,7 +278,10 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
         tri_vidx=cat("vidx", (0, 3), np.int32), tri_normal=cat("tri_normal", (0, 3), np.float64),
         tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), np.float64),
         tri_body=cat("tri_body", (0,), np.int32), tri_material=cat("tri_material", (0,), np.int32),
-        materials=tuple(materials), bodies=tuple(scene.bodies), tri_st=cat("tri_st", (0, 3, 2), np.float64),
+        materials=tuple(materials), bodies=tuple(scene.bodies),
+        # Texture coordinates only serve textured materials (rendering/device_textures.py):
+        # without any, the table of zeros (48 bytes per triangle) is left out.
+        tri_st=cat("tri_st", (0, 3, 2), np.float64) if textured else np.zeros((0, 3, 2)),
     )
 
 
