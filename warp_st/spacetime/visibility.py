@@ -257,19 +257,17 @@ def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bo
     rhos = np.array([r for _, r in balls], dtype=np.float64)
     vs = np.array([b.velocity for b in scene.bodies], dtype=np.float64).reshape(-1, 3)
     t_refs = np.array([b.reference_time for b in scene.bodies], dtype=np.float64)
-    direct = []
-    for cam_ends in ends:
-        row = [None] * len(scene.bodies)
+    # direct[c, i]: (lo, hi) of body i seen by camera c, NaN where never (hulls: fmin / fmax).
+    direct = np.full((len(ends), len(scene.bodies), 2), np.nan)
+    for c, cam_ends in enumerate(ends):
         for cam in cam_ends:
             lo, hi = frame_windows(m0s, rhos, vs, t_refs, cam.time, cam.position, infinite=infinite)
-            row = [w if a != a else hull(w, (a, b)) for w, a, b in zip(row, lo.tolist(), hi.tolist())]  # NaN: None
-        direct.append(row)
+            direct[c, :, 0], direct[c, :, 1] = np.fmin(direct[c, :, 0], lo), np.fmax(direct[c, :, 1], hi)
     out = [None] * len(scene.bodies)
     for group in _camera_groups(cameras, direct):
         for part in _extension_parts(scene, group):
-            windows = [None] * len(scene.bodies)
-            for c in part:
-                windows = [hull(w, d) for w, d in zip(windows, direct[c])]
+            lo, hi = np.fmin.reduce(direct[part, :, 0], axis=0), np.fmax.reduce(direct[part, :, 1], axis=0)
+            windows = [None if a != a else (a, b) for a, b in zip(lo.tolist(), hi.tolist())]
             part_cams = [cam for c in part for cam in ends[c]]
             for i, win in enumerate(_extended(scene, balls, pieces, windows, part_cams, infinite, max_depth)):
                 out[i] = union(out[i], win)
@@ -298,19 +296,21 @@ def _extension_parts(scene, group) -> list[list[int]]:
 
 def _camera_groups(cameras, direct) -> list[list[int]]:
     """Cameras in time order, split where a frame's windows overlap none of the previous
-    group's (no body is visible in both): each group's windows are bounded on their own."""
+    group's (no body is visible in both): each group's windows are bounded on their own.
+    ``direct``: (cameras, bodies, 2) windows, NaN where none (``visibility_windows``)."""
     order = sorted(range(len(cameras)), key=lambda c: cameras[c].time)
     groups: list[list[int]] = []
-    current = None
+    lo = hi = None
     for c in order:
-        if current is not None and any(
-            g is not None and d is not None and d[0] <= g[1] and g[0] <= d[1] for g, d in zip(current, direct[c])
-        ):
+        d_lo, d_hi = direct[c, :, 0], direct[c, :, 1]
+        with np.errstate(invalid="ignore"):
+            overlap = lo is not None and bool(np.any((d_lo <= hi) & (lo <= d_hi)))
+        if overlap:
             groups[-1].append(c)
-            current = [hull(g, d) for g, d in zip(current, direct[c])]
+            lo, hi = np.fmin(lo, d_lo), np.fmax(hi, d_hi)
         else:
             groups.append([c])
-            current = list(direct[c])
+            lo, hi = d_lo.copy(), d_hi.copy()
     return groups
 
 
