@@ -176,6 +176,10 @@ class Body:
     spin: the lab velocity gradient W about the moving pivot, (3, 3), column vectors: the
         body point at x at lab time t moves with velocity + W (x - o - velocity (t -
         reference_time)) (an animated body's piece that turns, docs/spec.md §2.1); None: 0.
+    piece_linear: for a piece of an animated body (``spacetime.animation.piece_bodies``),
+        the linear part L its surfaces were moved by from the body's static ones (row
+        vectors: piece points - origin = (static points - static pivot) L), (3, 3); the
+        rigid path shares one bottom level among a body's pieces through it. Else None.
     """
 
     prim_path: str
@@ -187,6 +191,7 @@ class Body:
     decoupled: bool = False
     motion: object = None
     spin: object = None
+    piece_linear: object = None
 
     @property
     def speed(self) -> float:

@@ -4,7 +4,8 @@ Two levels (``warp_st.spacetime.rigid``, ``warp_st.accel.instances``):
 
 - top: the 4-wide 4D BVH (``traverse.py``) over motion segments, each a body over a
   lab-time span [t_lo, t_hi] with its 4D box;
-- bottom: one ``wp.Mesh`` per distinct shape, its triangles at rest in body coordinates.
+- bottom: one ``wp.Mesh`` per distinct shape, its triangles at rest in body coordinates
+  (an animated body's pieces share one: ``body_map`` turns the ray into it).
 
 A leaf's segment takes the ray E(s) = O + s d into its body's coordinates: with the
 body's reference event (t_ref, o) on the pivot's worldline as anchor, the ray is the
@@ -91,6 +92,11 @@ def make_trace_rigid(scalar):
         quadric_inv: wp.array(dtype=wp.mat33d)
         quadric_centre: wp.array(dtype=wp.vec3d)
         quadric_param: wp.array(dtype=wp.vec3d)  # (radius, half height, -) of a cylinder, cone or capsule
+        # A body whose bottom level is held in other coordinates (an animated body's pieces
+        # share its unturned shape): the mesh sees r(s) as body_map (r(s) - body_map_shift).
+        body_mapped: wp.array(dtype=wp.int32)
+        body_map: wp.array(dtype=wp.mat33d)
+        body_map_shift: wp.array(dtype=wp.vec3d)
         # Motion segments in top-level leaf order: body, lab-time span (t_lo, t_hi) and
         # 4D box, relative to the render origin.
         seg_body: wp.array(dtype=wp.int32)
@@ -230,7 +236,12 @@ def make_trace_rigid(scalar):
                 if e0 < e1:  # the body's own box is met: start where its frame's is entered
                     e0, _e = rest_range(g.body_start_lo[body], g.body_start_hi[body], p, d, wp.float64(s_from),
                                         wp.float64(s_hi))
-                direction = wp.vec3(wp.float32(d[0]), wp.float32(d[1]), wp.float32(d[2]))
+                pm = p  # the ray as the bottom level sees it (the same s)
+                dm = d
+                if g.body_mapped[body] != 0:
+                    pm = g.body_map[body] * (p - g.body_map_shift[body])
+                    dm = g.body_map[body] * d
+                direction = wp.vec3(wp.float32(dm[0]), wp.float32(dm[1]), wp.float32(dm[2]))
                 mesh = g.body_mesh[body]
                 base = g.body_tri_base[body]
                 if g.body_quadric[body] != 0:
@@ -244,7 +255,7 @@ def make_trace_rigid(scalar):
                 elif any_hit != 0 and own == 0:
                     e0 = wp.max(e0, wp.float64(s_lo))
                     if e0 < e1:
-                        if wp.mesh_query_ray_anyhit(mesh, at(p, d, e0), direction, wp.float32(e1 - e0)):
+                        if wp.mesh_query_ray_anyhit(mesh, at(pm, dm, e0), direction, wp.float32(e1 - e0)):
                             return s_hi, base, vec4(scalar(0.0))
                 else:
                     # Start at the body's rest box. A hit on ``skip_tri`` is stepped over;
@@ -254,7 +265,7 @@ def make_trace_rigid(scalar):
                     s_life = wp.float64(o[0]) - g.body_end[body]
                     for attempt in range(4):
                         if e0 < e1:
-                            q = wp.mesh_query_ray(mesh, at(p, d, e0), direction, wp.float32(e1 - e0))
+                            q = wp.mesh_query_ray(mesh, at(pm, dm, e0), direction, wp.float32(e1 - e0))
                             if q.result:
                                 s = e0 + wp.float64(q.t)
                                 if base + q.face == skip_tri:

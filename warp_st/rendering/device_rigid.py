@@ -52,6 +52,9 @@ class RigidArrays(ShadingTables):
         self.quadric_inv = wp.array(shapes.quadric_inv, dtype=wp.mat33d, device=_DEVICE)
         self.quadric_centre = wp.array(shapes.quadric_centre, dtype=wp.vec3d, device=_DEVICE)
         self.quadric_param = wp.array(shapes.quadric_param, dtype=wp.vec3d, device=_DEVICE)
+        self.body_mapped = wp.array(shapes.body_mapped, dtype=wp.int32, device=_DEVICE)
+        self.body_map = wp.array(shapes.body_map, dtype=wp.mat33d, device=_DEVICE)
+        self.body_map_shift = wp.array(shapes.body_map_shift, dtype=wp.vec3d, device=_DEVICE)
         self.order = top.order
         self.seg_body = wp.array(segments.body[top.order].astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.wide = collapse(top)
@@ -65,7 +68,7 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     order = static.order
     for name in ("prim_vidx", "prim_tri", "tri_body", "body_object", "body_mesh", "body_tri_base", "body_rest",
                  "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi", "seg_body", "body_quadric",
-                 "quadric_inv", "quadric_centre", "quadric_param"):
+                 "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map", "body_map_shift"):
         setattr(g, name, getattr(static, name))
     g.body_velocity = static.body_velocity64
     vec2 = wp.types.vector(2, k.scalar)

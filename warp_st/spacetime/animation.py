@@ -240,7 +240,7 @@ def piece_bodies(body: Body, cuts: tuple[tuple[float, float, float], ...]) -> li
         pieces.append(dataclasses.replace(body, surfaces=tuple(_moved(s, linear, shift) for s in body.surfaces),
                                           origin=origin, velocity=np.asarray(v, dtype=np.float64).copy(),
                                           reference_time=float(ref), lifetime=(float(lo), float(hi)), motion=None,
-                                          spin=spin))
+                                          spin=spin, piece_linear=np.array(linear, dtype=np.float64)))
     return pieces
 
 

@@ -57,6 +57,12 @@ class RigidShapes(TriangleTables):
         quadric_centre / quadric_param: the shape is the canonical solid of that code in
         q = quadric_inv (r - quadric_centre), r in the shape frame's coordinates, with
         (radius, half height, 0), (B, 3, 3), (B, 3), (B, 3) (identity, zeros otherwise).
+    tri_st: as ``TriangleTables`` says, but empty, (0, 3, 2), when no material is textured.
+    body_mapped: 1 where the body's shape is held in other coordinates than its frame's,
+        (B,) int32: the pieces of an animated body share one shape, the body's unrotated
+        rest shape (``Body.piece_linear``), and a ray r(s) in the piece's frame
+        coordinates meets it as body_map (r(s) - body_map_shift), (B, 3, 3) and (B, 3)
+        (identity and zeros where not mapped; see ``rigid_shapes``).
     """
 
     shape_rest: tuple
@@ -77,6 +83,9 @@ class RigidShapes(TriangleTables):
     quadric_inv: np.ndarray
     quadric_centre: np.ndarray
     quadric_param: np.ndarray
+    body_mapped: np.ndarray
+    body_map: np.ndarray
+    body_map_shift: np.ndarray
 
     @property
     def triangle_count(self) -> int:
@@ -152,6 +161,13 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
     entry into the group's rest box), so bodies in contact (the walls of a room) meet
     without cracks, as triangles of one mesh do; in body coordinates each would round
     the ray on its own and a ray through their seam could pass between them.
+
+    Pieces of an animated body (``Body.piece_linear`` = L, not instances of each other:
+    the body turns) are held in their motion groups' frames like any body, r_f = r_0 L + c
+    (row vectors; r_0 the body's static rest offsets, c the group shift), but share one
+    shape, r_0 (the first piece's r_f - c, taken back by L^-1), so a rotating body's
+    thousands of pieces cost one bottom level: a ray meets it as L^-T (r_f(s) - c)
+    (``body_map``), the same lookback s.
     """
     materials: list = []
     mat_index: dict = {}
@@ -178,6 +194,9 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
     quadric_inv = np.tile(np.eye(3), (n_bodies, 1, 1))
     quadric_centre = np.zeros((n_bodies, 3))
     quadric_param = np.zeros((n_bodies, 3))
+    mapped = np.zeros(n_bodies, np.int32)
+    body_map = np.tile(np.eye(3), (n_bodies, 1, 1))
+    map_shift = np.zeros((n_bodies, 3))
     tables = {k: [] for k in ("normals", "vidx", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material",
                               "tri_st")}
     n_tri = n_vert = 0
@@ -187,16 +206,22 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
         if bt is None:
             continue
         rest = bt.rest
+        piece = (body.piece_linear is not None and uses[key] < 2  # a turned piece of an animated body
+                 and abs(float(np.linalg.det(body.piece_linear))) > 1e-300)
         if uses[key] < 2:  # not an instance: held in its motion group's frame
             g = groups.setdefault((tuple(np.asarray(body.velocity, np.float64).tolist()), bool(body.decoupled)), i)
             frame_of[i] = g
             offset = np.asarray(body.origin) - frame[g, 1:] - np.asarray(body.velocity) * (body.reference_time
                                                                                          - frame[g, 0])
-            rest = rest + rest_from_lab[i] @ offset
-            key = (i,)
+            shift = rest_from_lab[i] @ offset
+            rest = rest + shift
+            key = ("piece", body.prim_path, key[1], len(rest)) if piece else (i,)
+        if piece:
+            unturn = np.linalg.inv(np.asarray(body.piece_linear, dtype=np.float64))
+            mapped[i], body_map[i], map_shift[i] = 1, unturn.T, shift
         if key not in shapes:
             shapes[key] = len(shape_rest)
-            shape_rest.append(rest)
+            shape_rest.append(bt.rest @ unturn if piece else rest)
             shape_tris.append(bt.triangles.astype(np.int32))
         body_shape[i] = shapes[key]
         box_lo[i], box_hi[i] = bt.local.min(axis=0), bt.local.max(axis=0)
@@ -237,6 +262,8 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
         start_lo[members] = rest_lo[members].min(axis=0)
         start_hi[members] = rest_hi[members].max(axis=0)
 
+    textured = any(t is not None for m in materials for t in m.textures)
+
     def cat(name, shape, dtype):
         parts = tables[name]
         return np.concatenate(parts).astype(dtype) if parts else np.zeros(shape, dtype)
@@ -246,11 +273,15 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
         body_tri_base=tri_base, body_vert_base=vert_base, body_box_lo=box_lo, body_box_hi=box_hi,
         body_frame=frame[frame_of], body_rest_lo=rest_lo, body_rest_hi=rest_hi, body_start_lo=start_lo,
         body_start_hi=start_hi, rest_from_lab=rest_from_lab, body_quadric=quadric, quadric_inv=quadric_inv,
-        quadric_centre=quadric_centre, quadric_param=quadric_param, vertex_normals=cat("normals", (0, 3), np.float64),
+        quadric_centre=quadric_centre, quadric_param=quadric_param, body_mapped=mapped, body_map=body_map,
+        body_map_shift=map_shift, vertex_normals=cat("normals", (0, 3), np.float64),
         tri_vidx=cat("vidx", (0, 3), np.int32), tri_normal=cat("tri_normal", (0, 3), np.float64),
         tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), np.float64),
         tri_body=cat("tri_body", (0,), np.int32), tri_material=cat("tri_material", (0,), np.int32),
-        materials=tuple(materials), bodies=tuple(scene.bodies), tri_st=cat("tri_st", (0, 3, 2), np.float64),
+        materials=tuple(materials), bodies=tuple(scene.bodies),
+        # Texture coordinates only serve textured materials (rendering/device_textures.py):
+        # without any, the table of zeros (48 bytes per triangle) is left out.
+        tri_st=cat("tri_st", (0, 3, 2), np.float64) if textured else np.zeros((0, 3, 2)),
     )
 
 

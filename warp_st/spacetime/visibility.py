@@ -30,7 +30,7 @@ from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.deform import deforming, surface_hull_points
 from warp_st.core.scene import Body, CameraState, Scene, surface_triangles
 
-__all__ = ["body_ball", "body_pieces", "frame_window", "hull", "intervals", "union", "intersection", "span",
+__all__ = ["body_ball", "body_pieces", "frame_window", "frame_windows", "hull", "intervals", "union", "intersection", "span",
            "visibility_windows"]
 
 #: Cap on how far into the past a window may reach when the bound is unbounded
@@ -58,12 +58,36 @@ def body_pieces(body: Body) -> list[tuple[np.ndarray, float]]:
     spatial clusters, each ball holding its triangles' vertices (so their whole
     triangles). A body with an analytic sphere (re-tessellated at render time) stays
     one piece, ``body_ball``."""
+    return _body_pieces(body, {})
+
+
+def _body_pieces(body: Body, clusters: dict) -> list[tuple[np.ndarray, float]]:
+    """``body_pieces``; the pieces of an animated body (``Body.piece_linear``: turned
+    copies of one triangle set) reuse the first one's clusters (``clusters``, by prim
+    path and triangle count): any clusters give balls that hold the body."""
     if not body.surfaces or any(s.sphere is not None for s in body.surfaces) or deforming(body):
         return [body_ball(body)]
     A = contraction_matrix(body.velocity, body.decoupled)
     tri = np.concatenate([((s.points - body.origin) @ A.T + body.origin)[surface_triangles(s)] for s in body.surfaces])
     if len(tri) == 0:
         return [body_ball(body)]
+    key = (body.prim_path, len(tri))
+    if body.piece_linear is None:
+        order, starts = _clusters(tri)
+    else:
+        if key not in clusters:
+            clusters[key] = _clusters(tri)
+        order, starts = clusters[key]
+    pts = tri[order].reshape(-1, 3)
+    lo, hi = np.minimum.reduceat(pts, 3 * starts), np.maximum.reduceat(pts, 3 * starts)
+    m0 = 0.5 * (lo + hi)
+    d2 = ((pts - np.repeat(m0, 3 * np.diff(np.append(starts, len(order))), axis=0)) ** 2).sum(axis=1)
+    return [(m, float(r)) for m, r in zip(m0, np.sqrt(np.maximum.reduceat(d2, 3 * starts)))]
+
+
+def _clusters(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``body_pieces``' clusters of triangles ``tri`` (T, 3, 3): the triangle indices in
+    cluster order and each cluster's first position in it."""
     pieces = [np.arange(len(tri))]
     while len(pieces) < _MAX_PIECES:
         extent = [float(np.ptp(tri[p].reshape(-1, 3), axis=0).max()) if len(p) > 1 else 0.0 for p in pieces]
@@ -74,12 +98,7 @@ def body_pieces(body: Body) -> list[tuple[np.ndarray, float]]:
         centre = tri[p].mean(axis=1)
         order = p[np.argsort(centre[:, int(np.argmax(np.ptp(centre, axis=0)))], kind="stable")]
         pieces += [order[: len(order) // 2], order[len(order) // 2:]]
-    out = []
-    for p in pieces:
-        pts = tri[p].reshape(-1, 3)
-        m0 = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
-        out.append((m0, float(np.sqrt(((pts - m0) ** 2).sum(axis=1).max()))))
-    return out
+    return np.concatenate(pieces), np.cumsum([0] + [len(p) for p in pieces[:-1]])
 
 
 def _solve_h(w: np.ndarray, v: np.ndarray, k: float) -> np.ndarray:
@@ -133,6 +152,54 @@ def frame_window(m0, rho, v, t_ref, t_c, c, *, infinite=False, extra=0.0):
     if len(roots) == 0:
         return None
     return (float(roots[0] + t_ref), float(min(roots[-1] + t_ref, t_c + rho)))
+
+
+def _largest_root(w, v, vv, k):
+    """``_solve_h``'s largest root per row (NaN where none), for rows with |v| < 1; solved,
+    as ``_solve_h`` is, for the lookback u = k - tau (the largest tau is the smallest u >= 0)."""
+    wk = w + v * k[..., None]
+    a = vv - 1.0
+    b = -2.0 * (wk[..., 0] * v[..., 0] + wk[..., 1] * v[..., 1] + wk[..., 2] * v[..., 2])
+    c = wk[..., 0] ** 2 + wk[..., 1] ** 2 + wk[..., 2] ** 2
+    disc = b * b - 4.0 * a * c
+    sq = np.sqrt(np.maximum(disc, 0.0))
+    q = np.where(b != 0.0, -0.5 * (b + np.copysign(sq, b)), -0.5 * sq)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u1 = q / a
+        u2 = np.where(q != 0.0, c / q, u1)
+    tol = 1e-9 * (1.0 + np.sqrt(c))
+    u1 = np.where(u1 >= -tol, u1, np.inf)
+    u2 = np.where(u2 >= -tol, u2, np.inf)
+    best = np.minimum(u1, u2)
+    return np.where((disc >= 0.0) & (best < np.inf), k - best, np.nan)
+
+
+def frame_windows(m0, rho, v, t_ref, t_c, c, *, infinite=False, extra=0.0):
+    """``frame_window`` over rows broadcast together (bodies for one camera, or cameras
+    for one body): (lo, hi) arrays, NaN where it returns None."""
+    m0, v, c = (np.asarray(x, dtype=np.float64) for x in (m0, v, c))
+    rho, t_ref, t_c = (np.asarray(x, dtype=np.float64) for x in (rho, t_ref, t_c))
+    n = np.broadcast_shapes(m0.shape[:-1], v.shape[:-1], c.shape[:-1], rho.shape, t_ref.shape, t_c.shape)
+    m0, v, c = (np.broadcast_to(x, n + (3,)) for x in (m0, v, c))
+    rho, t_ref, t_c = (np.broadcast_to(x, n) for x in (rho, t_ref, t_c))
+    if infinite:
+        pad = np.maximum(rho, 1.0)
+        return t_c - pad, t_c + pad
+    w = m0 - c
+
+    def dot(x, y):
+        return x[..., 0] * y[..., 0] + x[..., 1] * y[..., 1] + x[..., 2] * y[..., 2]
+
+    ww, wv, vv = dot(w, w), dot(w, v), dot(v, v)
+    lo = _largest_root(w, v, vv, t_c - rho - extra - t_ref)
+    hi = _largest_root(w, v, vv, t_c + rho - t_ref)
+    lo = np.where(np.isnan(lo), -np.inf, lo + t_ref)
+    hi = np.minimum(np.where(np.isnan(hi), t_c, hi + t_ref), t_c + rho)
+    # |v| >= 1 (or within rounding of it): the scalar rule, row by row (rare).
+    for i in zip(*np.nonzero((vv >= 1.0) | (np.abs(vv - 1.0) < 1e-12))):
+        win = frame_window(m0[i], rho[i], v[i], t_ref[i], t_c[i], c[i], extra=extra)
+        lo[i], hi[i] = (np.nan, np.nan) if win is None else win
+    return lo, hi
 
 
 def hull(a, b):
@@ -193,22 +260,24 @@ def visibility_windows(scene: Scene, cameras: list[CameraState], *, infinite: bo
     a body is never visible.
     """
     balls = [body_ball(b) for b in scene.bodies]
-    pieces = [body_pieces(b) for b in scene.bodies] if scene.lights else None
+    clusters: dict = {}
+    pieces = [_body_pieces(b, clusters) for b in scene.bodies] if scene.lights else None
     ends = [[cam, cam.advanced(shutter)] if shutter > 0.0 else [cam] for cam in cameras]
-    direct = []
-    for cam_ends in ends:
-        row = [None] * len(scene.bodies)
+    m0s = np.array([m for m, _ in balls], dtype=np.float64).reshape(-1, 3)
+    rhos = np.array([r for _, r in balls], dtype=np.float64)
+    vs = np.array([b.velocity for b in scene.bodies], dtype=np.float64).reshape(-1, 3)
+    t_refs = np.array([b.reference_time for b in scene.bodies], dtype=np.float64)
+    # direct[c, i]: (lo, hi) of body i seen by camera c, NaN where never (hulls: fmin / fmax).
+    direct = np.full((len(ends), len(scene.bodies), 2), np.nan)
+    for c, cam_ends in enumerate(ends):
         for cam in cam_ends:
-            row = [hull(w, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position,
-                                        infinite=infinite))
-                   for w, body, (m0, rho) in zip(row, scene.bodies, balls)]
-        direct.append(row)
+            lo, hi = frame_windows(m0s, rhos, vs, t_refs, cam.time, cam.position, infinite=infinite)
+            direct[c, :, 0], direct[c, :, 1] = np.fmin(direct[c, :, 0], lo), np.fmax(direct[c, :, 1], hi)
     out = [None] * len(scene.bodies)
     for group in _camera_groups(cameras, direct):
         for part in _extension_parts(scene, group):
-            windows = [None] * len(scene.bodies)
-            for c in part:
-                windows = [hull(w, d) for w, d in zip(windows, direct[c])]
+            lo, hi = np.fmin.reduce(direct[part, :, 0], axis=0), np.fmax.reduce(direct[part, :, 1], axis=0)
+            windows = [None if a != a else (a, b) for a, b in zip(lo.tolist(), hi.tolist())]
             part_cams = [cam for c in part for cam in ends[c]]
             for i, win in enumerate(_extended(scene, balls, pieces, windows, part_cams, infinite, max_depth)):
                 out[i] = union(out[i], win)
@@ -237,19 +306,21 @@ def _extension_parts(scene, group) -> list[list[int]]:
 
 def _camera_groups(cameras, direct) -> list[list[int]]:
     """Cameras in time order, split where a frame's windows overlap none of the previous
-    group's (no body is visible in both): each group's windows are bounded on their own."""
+    group's (no body is visible in both): each group's windows are bounded on their own.
+    ``direct``: (cameras, bodies, 2) windows, NaN where none (``visibility_windows``)."""
     order = sorted(range(len(cameras)), key=lambda c: cameras[c].time)
     groups: list[list[int]] = []
-    current = None
+    lo = hi = None
     for c in order:
-        if current is not None and any(
-            g is not None and d is not None and d[0] <= g[1] and g[0] <= d[1] for g, d in zip(current, direct[c])
-        ):
+        d_lo, d_hi = direct[c, :, 0], direct[c, :, 1]
+        with np.errstate(invalid="ignore"):
+            overlap = lo is not None and bool(np.any((d_lo <= hi) & (lo <= d_hi)))
+        if overlap:
             groups[-1].append(c)
-            current = [hull(g, d) for g, d in zip(current, direct[c])]
+            lo, hi = np.fmin(lo, d_lo), np.fmax(hi, d_hi)
         else:
             groups.append([c])
-            current = list(direct[c])
+            lo, hi = d_lo.copy(), d_hi.copy()
     return groups
 
 
@@ -316,10 +387,12 @@ def _mirror_reach(scene, balls, windows, cameras, mirrors) -> float:
 def _seen(body, m0, rho, win, cameras, infinite, extra):
     """``win`` widened to every time the cameras can see the ball (m0, rho) of ``body``
     at, through mirrors too (``extra``, see ``_mirror_reach``)."""
-    for cam in cameras:
-        win = hull(win, frame_window(m0, rho, body.velocity, body.reference_time, cam.time, cam.position,
-                                     infinite=infinite, extra=extra))
-    return win
+    if not cameras:
+        return win
+    lo, hi = frame_windows(m0, rho, body.velocity, body.reference_time, [cam.time for cam in cameras],
+                           [cam.position for cam in cameras], infinite=infinite, extra=extra)
+    seen = ~np.isnan(lo)
+    return hull(win, (float(lo[seen].min()), float(hi[seen].max()))) if seen.any() else win
 
 
 def _extend_for_shadows(scene, balls, pieces, windows, cameras, infinite, extra):
@@ -490,28 +563,39 @@ def _retarded_roots(w: np.ndarray, v: np.ndarray, k) -> np.ndarray:
     """The tau with tau - |w + v tau| = k, per element of ``k`` (|v| < 1: the left side
     strictly increases), as a lower bound past rounding.
 
-    Squared: (|v|^2 - 1) tau^2 + 2 (w.v + k) tau + |w|^2 - k^2 = 0, of whose roots the
-    one that best satisfies the unsquared equation."""
+    Solved for u = tau - k >= 0: |w' + v u| = u with w' = w + v k, so (|v|^2 - 1) u^2 +
+    2 (w'.v) u + |w'|^2 = 0 (coefficients the size of the scene at any lab time; in tau the
+    constant |w|^2 - k^2 cancels once k >> |w|), of whose roots the one that best satisfies
+    the unsquared equation."""
     k = np.atleast_1d(np.asarray(k, dtype=np.float64))
     w, v = np.asarray(w, dtype=np.float64), np.asarray(v, dtype=np.float64)
+    wk = w[None] + k[:, None] * v[None]
     a = float(v @ v) - 1.0
-    b = 2.0 * (float(w @ v) + k)
-    c = float(w @ w) - k * k
+    b = 2.0 * (wk[:, 0] * v[0] + wk[:, 1] * v[1] + wk[:, 2] * v[2])  # row by row: the same sums at any batch size
+    c = wk[:, 0] ** 2 + wk[:, 1] ** 2 + wk[:, 2] ** 2
     disc = np.maximum(b * b - 4.0 * a * c, 0.0)  # >= 0 in exact arithmetic
     q = -0.5 * (b + np.copysign(np.sqrt(disc), b))
 
-    def f(tau):
-        return tau - np.linalg.norm(w[None] + tau[:, None] * v[None], axis=1)
+    def g(u):  # (tau - |w + v tau|) - k at tau = k + u, in the scene's own scale
+        return u - np.linalg.norm(wk + u[:, None] * v[None], axis=1)
 
     with np.errstate(divide="ignore", invalid="ignore"):
         first, second = q / a, np.where(q != 0.0, c / q, q / a)
-    tau = np.where(np.abs(f(second) - k) < np.abs(f(first) - k), second, first)
+    u = np.where(np.abs(g(second)) < np.abs(g(first)), second, first)
     # A lower bound is what the window needs: step down past any rounding (near
     # |v| = 1 the slope 1 - |v| is small and the root ill-conditioned).
-    step = 1e-12 * (1.0 + np.abs(tau) + np.abs(k))
-    high = f(tau) > k
+    step = 1e-12 * (1.0 + np.abs(u) + np.sqrt(c))
+    high = g(u) > 0.0
+    while high.any():
+        u = np.where(high, u - step, u)
+        step = step * 2.0
+        high = g(u) > 0.0
+    # and past the rounding of k + u itself (an ulp of tau, doubling)
+    tau = k + u
+    step = np.spacing(np.abs(tau))
+    high = tau - np.linalg.norm(w[None] + tau[:, None] * v[None], axis=1) > k
     while high.any():
         tau = np.where(high, tau - step, tau)
         step = step * 2.0
-        high = f(tau) > k
+        high = tau - np.linalg.norm(w[None] + tau[:, None] * v[None], axis=1) > k
     return tau
