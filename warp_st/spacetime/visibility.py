@@ -186,11 +186,7 @@ def frame_windows(m0, rho, v, t_ref, t_c, c, *, infinite=False, extra=0.0):
         pad = np.maximum(rho, 1.0)
         return t_c - pad, t_c + pad
     w = m0 - c
-
-    def dot(x, y):
-        return x[..., 0] * y[..., 0] + x[..., 1] * y[..., 1] + x[..., 2] * y[..., 2]
-
-    ww, wv, vv = dot(w, w), dot(w, v), dot(v, v)
+    vv = v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1] + v[..., 2] * v[..., 2]
     lo = _largest_root(w, v, vv, t_c - rho - extra - t_ref)
     hi = _largest_root(w, v, vv, t_c + rho - t_ref)
     lo = np.where(np.isnan(lo), -np.inf, lo + t_ref)
