@@ -53,11 +53,12 @@ STAGES = {
     }}
 }}
 ''',
-    # A coupled box rolling along +x at 0.6c: each piece contracted along its chord.
+    # A coupled box moving along +x at 0.6c and turning at 0.3 rad per time code: each piece
+    # contracted along its chord (its corners at up to ~0.94c: points at >= c are bad input).
     "rolling": _FLOOR + '''def Xform "Box" (prepend apiSchemas = ["SpacetimeBodyAPI"])
 {
     double3 xformOp:translate.timeSamples = { 0: (-30, 0, 0), 100: (30, 0, 0) }
-    double xformOp:rotateZ.timeSamples = { 0: 0, 100: -3437.7467707849396 }
+    double xformOp:rotateZ.timeSamples = { 0: 0, 100: -1718.8733853924698 }
     uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateZ"]
     def Cube "C"
     {
