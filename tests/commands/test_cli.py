@@ -224,7 +224,8 @@ def fake(monkeypatch, tmp_path):
         if "bad" in Path(path).name:
             raise SceneError(f"{path}: /World/Ship: spacetime:fourVelocity: speed 1.5 >= 1")
         return types.SimpleNamespace(source=str(path), frame_range=frame_range["value"],
-                                     bodies=(), cameras=("/World/Cam",), lights=(), products=())
+                                     bodies=(), cameras=("/World/Cam",), lights=(), products=(),
+                                     diagnostics=())
 
     monkeypatch.setattr(warp_st, "load", fake_load)
     monkeypatch.setattr(tasks, "load_scene", fake_load)

@@ -125,3 +125,13 @@ def int_arg(text: str) -> int:
         return int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+
+
+def stage_light_speed_arg(text: str):
+    """argparse type of ``--light-speed C``: a :class:`LightSpeedSetting` (docs/spec.md §1.1)."""
+    from warp_st.core.light_speed import parse_light_speed
+
+    try:
+        return parse_light_speed(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None

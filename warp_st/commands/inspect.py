@@ -208,8 +208,8 @@ def run(args) -> int:
 
 
 def _single(args) -> int:
-    from warp_st.output.plot import write_beauty_png, write_channel_png
     from warp_st.output.film import read_exr
+    from warp_st.output.plot import write_beauty_png, write_channel_png
 
     path = Path(args.exr[0])
     if args.png and not args.channel:
@@ -243,8 +243,8 @@ def _single(args) -> int:
 
 
 def _contact_sheet(args) -> int:
-    from warp_st.output.plot import write_contact_sheet
     from warp_st.output.film import read_exr
+    from warp_st.output.plot import write_contact_sheet
 
     channel = args.channel or BEAUTY
     paths = _sequence(args)

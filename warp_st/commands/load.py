@@ -134,6 +134,6 @@ def load(scene_path: Path, no_references: bool, max_memory: int | None = None, l
         except MemoryError:
             raise SceneError(f"{scene_path}: reading it needs more memory than the limit "
                              "(--max-memory); the file may be corrupt") from None
-        if any(d.code == "NothingToRender" for d in getattr(scene, "diagnostics", ())):  # one error line only
+        if any(d.code == "NothingToRender" for d in scene.diagnostics):  # one error line only
             raise SceneError(f"{scene_path}: {NOTHING_TO_RENDER}")
     return scene

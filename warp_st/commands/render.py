@@ -1,7 +1,6 @@
 """``warp-st render``: frames of a stage to EXR files, atomically, resumable."""
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import shlex
@@ -20,6 +19,7 @@ from warp_st.commands.common import (
     non_negative_int,
     positive_int,
     size_arg,
+    stage_light_speed_arg,
 )
 from warp_st.commands.load import load
 from warp_st.core.frames import finite_frame, frame_label, frames_label, parse_frames
@@ -85,15 +85,8 @@ def add_arguments(parser) -> None:
                         "usual lines)")
 
 def light_speed_arg(text: str):
-    """``finite`` / ``infinite`` (a light-speed mode), else a :class:`LightSpeedSetting`."""
-    from warp_st.core.light_speed import parse_light_speed
-
-    if text in ("finite", "infinite"):
-        return text
-    try:
-        return parse_light_speed(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+    """``finite`` / ``infinite`` (a light-speed mode), else the stage's light speed."""
+    return text if text in ("finite", "infinite") else stage_light_speed_arg(text)
 
 
 def _light_speed_mode(args):
@@ -156,8 +149,7 @@ def run(args, argv: list[str]) -> int:
         except OSError as exc:
             raise UsageError(f"--log: {exc.strerror or exc}") from None
     stage_hash = file_hash(scene_path)
-    scene = load(scene_path, args.no_references, args.max_memory, light_speed=args.light_speed
-                 if not isinstance(args.light_speed, str) else None)
+    scene = load(scene_path, args.no_references, args.max_memory, light_speed=_stage_light_speed(args))
     if frames is None:
         frames = [float(scene.frame_range[0])] if scene.frame_range is not None else [0.0]
     jobs = plan_outputs(args, scene_path, frames, frames_given, scene)

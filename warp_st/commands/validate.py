@@ -7,12 +7,11 @@ there is no error (warnings allowed), 2 when there is one (with one line
 """
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
 
-from warp_st.commands.common import PROG, UsageError
+from warp_st.commands.common import PROG, UsageError, stage_light_speed_arg
 from warp_st.commands.load import (
     _address_space_cap,
     _probe_in_child,
@@ -29,14 +28,6 @@ def add_arguments(parser) -> None:
     parser.add_argument("--light-speed", type=stage_light_speed_arg, metavar="C",
                         help="the stage's speed of light, as render's --light-speed (e.g. 30m/s, 2units/timecode)")
 
-
-def stage_light_speed_arg(text: str):
-    from warp_st.core.light_speed import parse_light_speed
-
-    try:
-        return parse_light_speed(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _plural(n: int, word: str) -> str:

@@ -14,7 +14,7 @@ import math
 import re
 from dataclasses import dataclass
 
-__all__ = ["PHYSICAL_LIGHT_SPEED", "LightSpeedSetting", "parse_light_speed", "physical_units_per_time_code"]
+__all__ = ["PHYSICAL_LIGHT_SPEED", "LightSpeedSetting", "parse_light_speed", "PHYSICAL"]
 
 #: The speed of light in vacuum, metres per second (exact by the SI definition of the metre).
 PHYSICAL_LIGHT_SPEED = 299_792_458.0
@@ -42,11 +42,15 @@ class LightSpeedSetting:
         return f"{self.value:g} {self.unit}"
 
 
+#: The physical speed of light as a setting.
+PHYSICAL = LightSpeedSetting(PHYSICAL_LIGHT_SPEED, METRES_PER_SECOND)
+
+
 def parse_light_speed(text: str) -> LightSpeedSetting:
     """``"299792458m/s"``, ``"3e8 m/s"``, ``"2units/timecode"`` (or ``"2u/tc"``), or
     ``"physical"`` (the speed of light in m/s); ValueError (one line) otherwise."""
     if text.strip().lower() in ("physical", "c"):
-        return LightSpeedSetting(PHYSICAL_LIGHT_SPEED, METRES_PER_SECOND)
+        return PHYSICAL
     m = _PATTERN.match(text)
     try:
         value = float(m.group("value")) if m else math.nan
@@ -58,7 +62,3 @@ def parse_light_speed(text: str) -> LightSpeedSetting:
     unit = METRES_PER_SECOND if m.group("unit") == "m/s" else UNITS_PER_TIME_CODE
     return LightSpeedSetting(value, unit)
 
-
-def physical_units_per_time_code(meters_per_unit: float, time_codes_per_second: float) -> float:
-    """The physical speed of light in stage units per time code."""
-    return PHYSICAL_LIGHT_SPEED / meters_per_unit / time_codes_per_second

@@ -14,10 +14,10 @@ from pxr import Usd, UsdGeom, UsdRender
 
 from warp_st.core.light_speed import (
     METRES_PER_SECOND,
+    PHYSICAL,
     PHYSICAL_LIGHT_SPEED,
     UNITS_PER_TIME_CODE,
     LightSpeedSetting,
-    physical_units_per_time_code,
 )
 from warp_st.usd import attributes as A
 from warp_st.usd.attributes import SPACETIME_BODY_API, SPACETIME_CAMERA_API, has_api
@@ -87,5 +87,5 @@ def stage_light_speed(stage: Usd.Stage, where, notes, requested: LightSpeedSetti
     if ours:
         return 1.0, SCHEMA_LIGHT_SPEED
     mpu, tcps = _units(stage, notes)
-    return physical_units_per_time_code(mpu, tcps), (f"the physical speed of light, {PHYSICAL_LIGHT_SPEED:.9g} m/s "
+    return PHYSICAL.units_per_time_code(mpu, tcps), (f"the physical speed of light, {PHYSICAL_LIGHT_SPEED:.9g} m/s "
                                                      f"at metersPerUnit {mpu:g} and {tcps:g} time codes per second")
