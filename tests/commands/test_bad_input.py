@@ -75,3 +75,34 @@ def test_syntax_error_and_missing_file_exit_2(tmp_path):
         assert proc.returncode == 2, proc.stderr
         assert scene.name in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
         assert not out.exists()
+
+
+def test_a_bad_camera_attribute_is_the_one_line_after_warnings(tmp_path, capsys):
+    """A stage with a warning (an unsupported prim) and a camera whose spacetime:lightSpeed
+    has the wrong type: exit 2 with only the error line. The camera is evaluated per frame,
+    so the command line evaluates it once while the stage's warnings are still held back
+    (found by the fuzz test, WARP_ST_FUZZ_SEED=3256744215)."""
+    from cli_helpers import run
+
+    path = tmp_path / "cam.usda"
+    path.write_text('''#usda 1.0
+def Camera "Cam"
+{
+    custom int spacetime:lightSpeed = 3
+    double3 xformOp:translate = (0, 0, 10)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Cube "Box"
+{
+}
+def Points "Dots"
+{
+    point3f[] points = [(0, 0, 0)]
+}
+''')
+    out = tmp_path / "x.exr"
+    code, _, err = run(capsys, "render", path, "-o", out, "--width", "8", "--height", "8", "--quiet")
+    lines = err.splitlines()
+    assert code == 2 and len(lines) == 1, err
+    assert lines[0].startswith(f"warp-st: error: {path}: /Cam: spacetime:lightSpeed: must be a token")
+    assert not out.exists()

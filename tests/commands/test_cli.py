@@ -225,7 +225,7 @@ def fake(monkeypatch, tmp_path):
             raise SceneError(f"{path}: /World/Ship: spacetime:fourVelocity: speed 1.5 >= 1")
         return types.SimpleNamespace(source=str(path), frame_range=frame_range["value"],
                                      bodies=(), cameras=("/World/Cam",), lights=(), products=(),
-                                     diagnostics=())
+                                     diagnostics=(), camera_state=lambda path, frame: None)
 
     monkeypatch.setattr(warp_st, "load", fake_load)
     monkeypatch.setattr(tasks, "load_scene", fake_load)

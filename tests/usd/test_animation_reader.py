@@ -186,8 +186,9 @@ def test_validate_lists_animated_bodies(tmp_path, capsys):
 def test_a_camera_time_sampled_in_place_is_at_rest(tmp_path):
     """A camera whose translate is time-sampled but does not move (equal samples) beside a
     constant spacetime:time is at rest: not an animated camera whose time stands still (that
-    stays bad input, naming spacetime:time, where the camera does move). Found by the fuzz
-    test (tests/usd/test_fuzz_usd.py, WARP_ST_FUZZ_SEED=2659931714)."""
+    stays bad input where the camera does move, naming the xformOp that moves it: the motion
+    authored is the fault). Found by the fuzz test (tests/usd/test_fuzz_usd.py,
+    WARP_ST_FUZZ_SEED=2659931714 and, for the attribute named, 390103457)."""
     def stage(samples):
         return '''#usda 1.0
 def Camera "Cam" (prepend apiSchemas = ["SpacetimeCameraAPI"])
@@ -206,5 +207,6 @@ def Cube "C"
     cam = still.camera_state(still.default_camera, 0.0)
     assert not np.any(cam.velocity) and cam.time == 5.0
     moving = warp_st.load(write(tmp_path, "moving.usda", stage("{ 0: (0, 0, 0), 1: (0.5, 0, 0) }")))
-    with pytest.raises(SceneError, match="spacetime:time"):
+    with pytest.raises(SceneError, match=r"/Cam: xformOp:translate: moves the camera at time code 0, where its "
+                                         r"spacetime:time does not increase"):
         moving.camera_state(moving.default_camera, 0.0)

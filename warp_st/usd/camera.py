@@ -12,7 +12,7 @@ from warp_st.core.conventions import LightSpeed
 from warp_st.core.limits import MAX_MAGNITUDE
 from warp_st.core.scene import DEFAULT_CAMERA, CameraState, SceneError
 from warp_st.usd import attributes as A
-from warp_st.usd.animation import xform_sample_times
+from warp_st.usd.animation import animated_op, xform_sample_times
 from warp_st.usd.attributes import SPACETIME_BODY_API, Where, body_kinematics, has_api
 from warp_st.usd.geometry import world_transform
 from warp_st.usd.stage import open_stage, tf_message
@@ -214,9 +214,10 @@ class CameraEvaluator:
             return np.zeros(3)
         t_later = A.real(w, prim, "spacetime:time", None, time=tc)
         dt = w.lab_per_code * step if t_later is None else w.lab_per_code * t_later - time
-        if not dt > 0.0:
-            raise w.error(prim, "spacetime:time", f"must increase with the time code where the camera is animated "
-                                                  f"(time code {frame:g})")
+        if not dt > 0.0:  # the fault is the motion authored where the camera's time stands still
+            owner, op = animated_op(prim)
+            raise w.error(owner, op, f"moves the camera at time code {frame:g}, where its spacetime:time does not "
+                                     "increase (a camera cannot move in no lab time)")
         return moved / dt
 
 
