@@ -293,7 +293,16 @@ class GprimReader:
 
     def _mesh(self, prim):
         """points / faceVertexCounts / faceVertexIndices, validated, fan-triangulated, holes
-        removed; with the topology primvars are placed by (``textures.corner_st``)."""
+        removed; with the topology primvars are placed by (``textures.corner_st``). A mesh
+        whose points or topology cannot be used (a real-world USD problem, docs/spec.md §7)
+        is a warning and renders nothing."""
+        try:
+            return self._valid_mesh(prim)
+        except SceneError as exc:
+            self.notes.value_error(exc, "the mesh is not rendered")
+            return None
+
+    def _valid_mesh(self, prim):
         w = self.where
         points = A.vec3_array(w, prim, "points")
         counts = A.int_array(w, prim, "faceVertexCounts")
