@@ -106,3 +106,37 @@ def Points "Dots"
     assert code == 2 and len(lines) == 1, err
     assert lines[0].startswith(f"warp-st: error: {path}: /Cam: spacetime:lightSpeed: must be a token")
     assert not out.exists()
+
+
+def test_a_camera_too_fast_at_a_later_frame_is_the_one_line_after_warnings(tmp_path, capsys):
+    """The camera is at rest until time code 8 and then moves 30 units in 2 time codes (15 c,
+    in a schema stage: 1 unit per time code). Rendering frames 0-10 of a stage that also
+    warns is exit 2 with only the error line, and nothing written: the command line
+    evaluates the camera at every frame of the run while the warnings are held back."""
+    from cli_helpers import run
+
+    path = tmp_path / "fast.usda"
+    path.write_text('''#usda 1.0
+(
+    startTimeCode = 0
+    endTimeCode = 10
+)
+def Camera "Cam" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{
+    double3 xformOp:translate.timeSamples = { 0: (0, 0, 10), 8: (0, 0, 10), 10: (30, 0, 10) }
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+def Cube "Box"
+{
+}
+def Points "Dots"
+{
+    point3f[] points = [(0, 0, 0)]
+}
+''')
+    code, _, err = run(capsys, "render", path, "-o", tmp_path / "x.####.exr", "--frames", "0-10",
+                       "--width", "8", "--height", "8", "--quiet")
+    lines = err.splitlines()
+    assert code == 2 and len(lines) == 1, err
+    assert lines[0].startswith(f"warp-st: error: {path}: /Cam") and "15 c at time code 8" in lines[0], lines[0]
+    assert not list(tmp_path.glob("x.*.exr"))

@@ -116,13 +116,13 @@ def _probe_in_child(scene_path: Path, no_references: bool, budget: int | None) -
 
 
 def load(scene_path: Path, no_references: bool, max_memory: int | None = None, light_speed=None,
-         camera: str | None = None, frame: float | None = None):
+         camera: str | None = None, frames=None):
     """warp_st.load with its diagnostics held back (see held_diagnostics) and its
     memory capped (see _address_space_cap); stages with binary layers are first read
     in a child process (see _probe_in_child). The run's ``camera`` (None: the stage's) is
-    evaluated at its first ``frame`` (None: the stage's start, else 0) inside the block
-    too: a bad camera attribute is then the run's one error line, not a line after the
-    stage's warnings (docs/spec.md §6)."""
+    evaluated at each of its ``frames`` (None: the stage's start, else 0) inside the block
+    too: a bad camera attribute, or an animated camera at >= c at a later frame, is then
+    the run's one error line, not a line after the stage's warnings (docs/spec.md §6)."""
     import warp_st
     from warp_st.core.limits import default_max_memory
 
@@ -140,7 +140,8 @@ def load(scene_path: Path, no_references: bool, max_memory: int | None = None, l
                              "(--max-memory); the file may be corrupt") from None
         if any(d.code == "NothingToRender" for d in scene.diagnostics):  # one error line only
             raise SceneError(f"{scene_path}: {NOTHING_TO_RENDER}")
-        if frame is None:
-            frame = float(scene.frame_range[0]) if scene.frame_range is not None else 0.0
-        scene.camera_state(camera, frame)
+        if not frames:
+            frames = [float(scene.frame_range[0]) if scene.frame_range is not None else 0.0]
+        for frame in frames:
+            scene.camera_state(camera, frame)
     return scene

@@ -150,7 +150,7 @@ def run(args, argv: list[str]) -> int:
             raise UsageError(f"--log: {exc.strerror or exc}") from None
     stage_hash = file_hash(scene_path)
     scene = load(scene_path, args.no_references, args.max_memory, light_speed=_stage_light_speed(args),
-                 camera=args.camera, frame=frames[0] if frames else None)
+                 camera=args.camera, frames=frames)
     if frames is None:
         frames = [float(scene.frame_range[0])] if scene.frame_range is not None else [0.0]
     jobs = plan_outputs(args, scene_path, frames, frames_given, scene)
