@@ -180,6 +180,9 @@ class Body:
         the linear part L its surfaces were moved by from the body's static ones (row
         vectors: piece points - origin = (static points - static pivot) L), (3, 3); the
         rigid path shares one bottom level among a body's pieces through it. Else None.
+    seam: for such a piece, the largest distance between its surfaces and its neighbouring
+        pieces' where they overlap in time (they model one surface): shadow rays leaving
+        the piece ignore its object that near (``kernels/shade.py``). Else 0.
     """
 
     prim_path: str
@@ -192,6 +195,7 @@ class Body:
     motion: object = None
     spin: object = None
     piece_linear: object = None
+    seam: float = 0.0
 
     @property
     def speed(self) -> float:

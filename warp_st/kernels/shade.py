@@ -17,6 +17,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
     # Secondary rays start this far (relative to the path length so far) from the hit
     # event: in float32 1e-4 is ~1000 ulps, far above the rounding of the hit.
     SELF_EPS = 1.0e-4 if wp.types.type_size_in_bytes(scalar) == 4 else 1.0e-9
+    SEAM_SLOPE = 20.0  # the longest reach past an animated piece's seam: shadow rays at (l + u).n >= 0.05
     FAR = 1.0e30
     # A turning coupled body's points are below c (the reader refuses faster ones, checking
     # the vertices); a hit between them may exceed that by rounding: 1 - |u|^2 is kept >= this.
@@ -44,6 +45,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         body_decoupled: wp.array(dtype=wp.int32)
         body_spins: wp.array(dtype=wp.int32)  # 1: the body turns (an animated piece), its points move with
         body_spin: wp.array(dtype=mat33)  # v + W (x - o(t)), W = Body.spin (docs/spec.md §2.1)
+        body_seam: wp.array(dtype=scalar)  # Body.seam: an animated piece's distance from its neighbours
         light_kind: wp.array(dtype=wp.int32)  # 0 sphere (radius 0: point), 1 distant, 2 area (rect, disk)
         light_pos: wp.array(dtype=vec3)
         light_dir: wp.array(dtype=vec3)
@@ -185,10 +187,19 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         skip_dist = scalar(0.0)
         if shd.tri_smooth[tri] != 0:
             skip_dist = scalar(2.0) * shd.tri_size[tri]
+        # An animated body's neighbouring pieces model the same surface within body_seam.
+        # Relative to the surface point moving with u the shadow ray leaves along l + u: it
+        # enters the body's own world-tube at once when (l + u).n <= 0 (the body shadows
+        # itself), else it meets the neighbours' copy of the surface within seam / (l + u).n.
+        seam = shd.body_seam[body]
+        u = vec3(scalar(0.0))
+        if seam > scalar(0.0) and finite != 0:
+            u, _gu = point_velocity(shd, body, event)
         for li in range(shd.light_count):
             kind = shd.light_kind[li]
             if kind == 2:
-                area = area_light(geo, shd, finite, event, x, normal, li, s_min, tri, body, skip_dist)
+                area = area_light(geo, shd, finite, event, x, normal, li, s_min, tri, body,
+                                  wp.max(skip_dist, seam * scalar(SEAM_SLOPE)))
                 color = color + wp.cw_mul(diffuse, shd.light_radiance[li]) * area
             else:
                 l = shd.light_dir[li]
@@ -214,11 +225,18 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
                 cos_l = wp.dot(normal, l)
                 if cos_l > scalar(0.0) and centre_dist >= radius:
                     vis = scalar(0.0)
-                    if radius > scalar(0.0):  # a sphere: seen from outside, shadows from its silhouette
+                    leave = cos_l
+                    if seam > scalar(0.0):
+                        leave = wp.dot(normal, l + u)
+                    skip = wp.max(skip_dist, seam * wp.min(scalar(1.0) / wp.max(leave, scalar(1e-30)),
+                                                           scalar(SEAM_SLOPE)))
+                    if leave <= scalar(0.0):
+                        vis = scalar(0.0)
+                    elif radius > scalar(0.0):  # a sphere: seen from outside, shadows from its silhouette
                         vis = sphere_visibility(geo, finite, event, x, pos, radius, l, centre_dist,
-                                                s_min, tri, body, skip_dist)
+                                                s_min, tri, body, skip)
                     else:
-                        blocker, _bs, _bl, _bv, _bo = trace(geo, event, l, finite, s_min, dist, tri, body, skip_dist, 1)
+                        blocker, _bs, _bl, _bv, _bo = trace(geo, event, l, finite, s_min, dist, tri, body, skip, 1)
                         if blocker < 0:
                             vis = scalar(1.0)
                     if vis > scalar(0.0):

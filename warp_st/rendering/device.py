@@ -63,6 +63,7 @@ class ShadingTables:
                                    device=_DEVICE)
         self.body_spin = wp.array(np.array(spins, dtype=np_scalar).reshape(-1, 3, 3),
                                   dtype=wp.types.matrix((3, 3), k.scalar), device=_DEVICE)
+        self.body_seam = wp.array(np.array([b.seam for b in bodies], dtype=np_scalar), dtype=k.scalar, device=_DEVICE)
         self.body_events = np.array([[b.reference_time, *b.origin] for b in bodies], dtype=np.float64).reshape(-1, 4)
         # An animated body's pieces (spacetime/animation.py) keep its prim path: one object.
         first = {}
@@ -172,6 +173,7 @@ def make_shading(
     s.body_decoupled = static.body_decoupled
     s.body_spins = static.body_spins
     s.body_spin = static.body_spin
+    s.body_seam = static.body_seam
     kinds = np.array([_LIGHT_KIND[l.kind] for l in lights], dtype=np.int32)
     pos = np.array([l.position for l in lights], dtype=np.float64).reshape(-1, 3) - origin[1:]
     dirs = np.array([l.direction for l in lights], dtype=np.float64).reshape(-1, 3)

@@ -227,9 +227,10 @@ def piece_bodies(body: Body, cuts: tuple[tuple[float, float, float], ...]) -> li
     t_ref = body.reference_time
     f_ref = next(((t_ref - s[2]) * g + f for q, (s, g, f) in enumerate(zip(spans, inv_gamma, anchor_f))
                   if (s[0] if q == 0 else s[2]) <= t_ref <= s[1]), 0.0)
+    seams = _seams(spans, body_radius(body), body.decoupled)
     pieces = []
     life_lo, life_hi = body.lifetime
-    for (lo, hi, t_anchor, o_anchor, v, linear), g, f, spin in zip(spans, inv_gamma, anchor_f, spins):
+    for (lo, hi, t_anchor, o_anchor, v, linear), g, f, spin, seam in zip(spans, inv_gamma, anchor_f, spins, seams):
         lo, hi = max(lo, life_lo), min(hi, life_hi)
         if not lo < hi:
             continue
@@ -240,8 +241,22 @@ def piece_bodies(body: Body, cuts: tuple[tuple[float, float, float], ...]) -> li
         pieces.append(dataclasses.replace(body, surfaces=tuple(_moved(s, linear, shift) for s in body.surfaces),
                                           origin=origin, velocity=np.asarray(v, dtype=np.float64).copy(),
                                           reference_time=float(ref), lifetime=(float(lo), float(hi)), motion=None,
-                                          spin=spin, piece_linear=np.array(linear, dtype=np.float64)))
+                                          spin=spin, piece_linear=np.array(linear, dtype=np.float64),
+                                          seam=float(seam)))
     return pieces
+
+
+def _seams(spans, radius: float, decoupled: bool) -> np.ndarray:
+    """``Body.seam`` of each span: the largest distance between the surface it models and
+    its neighbours' where they overlap in time, bounded by R |G_k - G_k+1|_2 (G = L A(v),
+    the pivots meet at the seam) plus the pivots' drift apart over the overlap."""
+    if len(spans) < 2:
+        return np.zeros(len(spans))
+    v = np.array([sp[4] for sp in spans], dtype=np.float64).reshape(-1, 3)
+    g = np.einsum("kij,kjl->kil", np.array([sp[5] for sp in spans], dtype=np.float64), _contractions(v, decoupled))
+    overlap = np.array([max(b[2] - b[0], 0.0) if np.isfinite(b[0]) else 0.0 for b in spans[1:]])
+    gap = radius * np.linalg.norm(g[1:] - g[:-1], ord=2, axis=(1, 2)) + np.linalg.norm(v[1:] - v[:-1], axis=1) * overlap
+    return np.maximum(np.concatenate([[0.0], gap]), np.concatenate([gap, [0.0]]))
 
 
 def _spin(m, t_o: float, velocity: np.ndarray, decoupled: bool):
