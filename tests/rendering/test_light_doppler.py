@@ -155,6 +155,17 @@ def test_passing_lamp_searchlight_scales_by_d_to_the_fourth(tmp_path):
     np.testing.assert_allclose(img.rgba[..., :3], want, rtol=RTOL)
 
 
+def test_infinite_light_speed_leaves_the_lamps_time_dilation(tmp_path):
+    """Infinite light speed (§1: only time dilation remains): D_ls = 1 / gamma of the lamp at 0.5 c,
+    where USD puts it at the hit time; --searchlight scales the Lambert term by gamma⁻⁴ = 0.5625."""
+    img, _n, hit, _t_h = _render(tmp_path, CAMERA + RESTING_FLOOR + MOVING_LAMP, searchlight=True,
+                                 light_speed="infinite")
+    to = LAMP_START + FRAME * LAMP_V - hit
+    r = np.linalg.norm(to, axis=-1)
+    want = ALBEDO * INTENSITY * COLOUR * (0.75**2 * to[..., 1] / r**3)[..., None]
+    np.testing.assert_allclose(img.rgba[..., :3], want, rtol=RTOL)
+
+
 @pytest.mark.parametrize("decoupled", [False, True])
 def test_lamp_at_rest_over_a_sliding_floor_shifts_by_the_floors_motion(tmp_path, decoupled):
     """The lamp at rest, the floor sliding at 0.5 c along x (coupled: gamma (1, v); decoupled: (1, v)),
