@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from analytic_scenes import pixel_directions
+from animation_stages import DOWN_CAMERA
 
 import warp_st
 from warp_st.core.doppler_colour import INTERPOLATION_ERROR, doppler_transform_np
@@ -32,22 +33,7 @@ SIZE = (24, 18)
 # Smits weight, the largest weight the colour's largest component) is added per pixel.
 RTOL = 1e-3
 
-CAMERA = """#usda 1.0
-(
-    upAxis = "Y"
-    startTimeCode = 0
-    endTimeCode = 100
-)
-def Camera "Cam"
-{
-    float focalLength = 20
-    float horizontalAperture = 24
-    double3 xformOp:translate = (0, 10, 0)
-    float xformOp:rotateX = -90
-    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateX"]
-    custom token spacetime:lightSpeed = "finite"
-}
-"""
+CAMERA = DOWN_CAMERA
 FLOOR = """
 def Mesh "Floor" {body_api}
 {{
