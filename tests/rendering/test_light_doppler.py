@@ -152,6 +152,19 @@ def test_infinite_light_speed_leaves_the_lamps_time_dilation(tmp_path):
     np.testing.assert_allclose(img.rgba[..., :3], want, rtol=RTOL)
 
 
+@pytest.mark.parametrize("frame", [-30.0, 160.0])
+def test_held_lamp_is_a_lamp_at_rest(tmp_path, frame):
+    """Before its first sample and after its last USD holds the lamp (spec §3.4): it has no
+    velocity there, so --searchlight leaves the beauty bit-identical to the plain render."""
+    path = tmp_path / "held.usda"
+    path.write_text(CAMERA + RESTING_FLOOR + MOVING_LAMP)
+    scene = warp_st.load(str(path))
+    plain = warp_st.render(scene, width=SIZE[0], height=SIZE[1], frame=frame)
+    lit = warp_st.render(scene, width=SIZE[0], height=SIZE[1], frame=frame, searchlight=True)
+    assert plain.rgba[..., :3].max() > 0.0
+    assert np.array_equal(plain.rgba, lit.rgba)
+
+
 @pytest.mark.parametrize("decoupled", [False, True])
 def test_lamp_at_rest_over_a_sliding_floor_shifts_by_the_floors_motion(tmp_path, decoupled):
     """The lamp at rest, the floor sliding at 0.5 c along x (coupled: gamma (1, v); decoupled: (1, v)),
