@@ -25,6 +25,25 @@ def Camera "Cam"
 }
 '''
 
+#: A camera at rest at (0, 10, 0) looking straight down at the floor y = 0 (finite light speed;
+#: time codes 0-100): a floor pixel's hit is 10 / -n_y along its ray (lit-floor tests).
+DOWN_CAMERA = '''#usda 1.0
+(
+    upAxis = "Y"
+    startTimeCode = 0
+    endTimeCode = 100
+)
+def Camera "Cam"
+{
+    float focalLength = 20
+    float horizontalAperture = 24
+    double3 xformOp:translate = (0, 10, 0)
+    float xformOp:rotateX = -90
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateX"]
+    custom token spacetime:lightSpeed = "finite"
+}
+'''
+
 
 def orbit_degrees(speed: float, radius: float, duration: float) -> float:
     """The rotateY angle (degrees) after ``duration`` of a pivot at ``radius`` moving at ``speed``."""

@@ -6,7 +6,8 @@ the Python API (``warp_st.render(doppler_color=..., searchlight=...)``).
 Laws: each way gives the bit-identical beauty (the EXR's FLOAT channels are lossless) and
 the same recorded options; it differs from the default render, which has both off; and
 each hit pixel of the shifted beauty is the float64 twin of the kernel's transform
-(``doppler_transform_np``) applied to the default beauty at that pixel's Doppler AOV.
+(``doppler_transform_np``) applied to the default beauty at that pixel's Doppler AOV, the
+sun's light shifted first by its own D_ls (the sphere moves towards it, §3.5; 0.7.0).
 The scene: a lit sphere approaching the camera at 0.6c (D up to 2 on the axis).
 """
 from __future__ import annotations
@@ -110,6 +111,12 @@ def test_command_line_settings_and_api_agree(option, tmp_path, capsys, default):
     # 1e-4 relative: float32 work and D^4 of D ~ 2; with the colour shift plus the table's
     # interpolation bound per unit weight times each pixel's largest component (and D^4)
     shift, light = "doppler_color" in keywords, "searchlight" in keywords
-    twin = doppler_transform_np(default.rgba[hit][:, :3], default.doppler[hit], color_shift=shift, searchlight=light)
-    table = INTERPOLATION_ERROR * default.rgba[hit][:, :3].max(axis=1) * (default.doppler[hit] ** 4 if light else 1.0)
+    # the white sun (light from +z) reaches the ball moving towards it at D_ls = gamma (1 + l.v) = 1.25 x 1.6;
+    # the default beauty is albedo x sun x cos, so the lit colour is it times the sun's shifted white
+    d_ls = 1.25 * 1.6
+    lit = default.rgba[hit][:, :3] * doppler_transform_np(np.ones(3), d_ls, color_shift=shift, searchlight=light)
+    twin = doppler_transform_np(lit, default.doppler[hit], color_shift=shift, searchlight=light)
+    # the table's bound for the sun's shift (carried through the second, D^4 with the searchlight) and the second's
+    d_ls4, d_cam4 = (d_ls**4, default.doppler[hit] ** 4) if light else (1.0, 1.0)
+    table = INTERPOLATION_ERROR * (default.rgba[hit][:, :3].max(axis=1) * d_ls4 + lit.max(axis=1)) * d_cam4
     np.testing.assert_allclose(by_api.rgba[hit][:, :3], twin, rtol=1e-4, atol=1e-6 + (table.max() if shift else 0.0))

@@ -20,6 +20,7 @@ import math
 import numpy as np
 import pytest
 from analytic_scenes import pixel_directions
+from animation_stages import DOWN_CAMERA
 
 import warp_st
 
@@ -33,22 +34,7 @@ FRAME = 50.0
 # issue's target, has ample margin; the unretarded position is off by factors (asserted).
 RTOL = 1e-3
 
-HEADER = """#usda 1.0
-(
-    upAxis = "Y"
-    startTimeCode = 0
-    endTimeCode = 100
-)
-def Camera "Cam"
-{
-    float focalLength = 20
-    float horizontalAperture = 24
-    double3 xformOp:translate = (0, 10, 0)
-    float xformOp:rotateX = -90
-    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateX"]
-    custom token spacetime:lightSpeed = "finite"
-}
-def Mesh "Floor"
+HEADER = DOWN_CAMERA + """def Mesh "Floor"
 {
     point3f[] points = [(-40, 0, -40), (40, 0, -40), (40, 0, 40), (-40, 0, 40)]
     int[] faceVertexCounts = [4]

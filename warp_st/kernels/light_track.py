@@ -18,7 +18,7 @@ __all__ = ["make_light_track"]
 
 @functools.lru_cache(maxsize=None)
 def make_light_track(scalar):
-    """(Track struct, linear_at, emission_event) for ``scalar`` (one struct type per scalar:
+    """(Track struct, linear_at, emission_event, emission_velocity) for ``scalar`` (one struct type per scalar:
     the host fills the same ``Track`` the kernels read)."""
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
@@ -121,4 +121,20 @@ def make_light_track(scalar):
             t_e = trk.t[lo] + tau
         return vec4(t_e, p[0], p[1], p[2])
 
-    return Track, linear_at, emission_event
+    @wp.func
+    def emission_velocity(trk: Track, li: int, p_static: vec3, pivot: vec3, t_e: scalar) -> vec3:
+        """The lab velocity of the light point ``p_static`` at lab time ``t_e`` (an emission
+        event's): the chord of the probe interval holding t_e, where the worldline is linear;
+        0 for a light at rest and where it is held (before the first probe, after the last)."""
+        zero = vec3(scalar(0.0))
+        if trk.count[li] < 2:
+            return zero
+        lo = trk.first[li]
+        hi = lo + trk.count[li] - 1
+        if t_e < trk.t[lo] or t_e > trk.t[hi]:
+            return zero
+        j, _f = locate(trk, li, t_e)
+        p_rel = p_static - pivot
+        return (probe_point(trk, j + 1, p_rel) - probe_point(trk, j, p_rel)) / (trk.t[j + 1] - trk.t[j])
+
+    return Track, linear_at, emission_event, emission_velocity

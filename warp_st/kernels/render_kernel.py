@@ -224,7 +224,7 @@ def _make_render(scalar, k, trace, Geometry):
             u, gamma_u = point_velocity(shd, body, event)  # the emitting point's own velocity
             normal = shading_normal(geo, shd, prim, lam, n, u)
             if metal < scalar(1.0):
-                local = shade(geo, shd, finite, prim, path, event, normal, diffuse, emissive)
+                local = shade(geo, shd, finite, prim, path, event, normal, diffuse, emissive, u, gamma_u)
                 if shd.sky.present != 0:  # the dome's diffuse light (no shadowing), instead of the unlit albedo
                     lit = wp.cw_mul(diffuse, sky_irradiance(shd.sky, normal)) * scalar(INV_PI)
                     if shd.light_count == 0:

@@ -2,12 +2,16 @@
 
 Pure Warp device code. Lights are at rest in the lab (docs/spec.md §3) unless animated: then
 each hit is lit from the light's emission event on its worldline (``light_track``, §3.4).
+With --doppler-color / --searchlight each light's radiance arrives shifted by the Doppler
+factor between the light and the lit point (``light_doppler``, §3.5).
 """
 import warp as wp
 
 from warp_st.kernels.layout import ANALYTIC_TEST
+from warp_st.kernels.light_doppler import make_light_doppler
 from warp_st.kernels.light_track import make_light_track
 from warp_st.kernels.sky import make_sky
+from warp_st.kernels.spectrum import make_spectrum
 from warp_st.kernels.texture import make_textures
 
 __all__ = ["make_shade"]
@@ -25,7 +29,9 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
     mat33 = wp.types.matrix((3, 3), scalar)
     Textures, _inputs = make_textures(scalar)
     Sky, _radiance, _irradiance = make_sky(scalar)
-    Track, light_linear_at, emission_event = make_light_track(scalar)
+    Track, light_linear_at, emission_event, emission_velocity = make_light_track(scalar)
+    incident_doppler = make_light_doppler(scalar)
+    doppler_transform = make_spectrum(scalar, vec3)
 
     @wp.struct
     class Shading:
@@ -143,16 +149,22 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
 
     @wp.func
     def area_light(geo: Geometry, shd: Shading, finite: int, event: vec4, x: vec3, normal: vec3, li: int,
-                   s_min: scalar, tri: int, body: int, skip_dist: scalar) -> scalar:
-        """sum_i w_i cos cos' / d^2 over the light's unblocked samples (warp_st.core.light_samples)."""
+                   s_min: scalar, tri: int, body: int, skip_dist: scalar, u: vec3, gamma_u: scalar):
+        """sum_i w_i cos cos' / d^2 over the light's unblocked samples (warp_st.core.light_samples)
+        whose light arrives unshifted, and the sum of the others' shifted radiance times theirs
+        (D_ls != 1 at the point moving with u, with --doppler-color / --searchlight)."""
         moving = shd.track.count[li] > 0
+        shifting = shd.color_shift != 0 or shd.searchlight != 0
         total = scalar(0.0)
+        shifted = vec3(scalar(0.0))
         first = shd.light_first[li]
         for j in range(first, first + shd.light_samples[li]):
             back = shd.light_dir[li]
             p = shd.sample_pos[j]
+            v_light = vec3(scalar(0.0))
             if moving:  # the sample's retarded position, the light's normal turned with it
                 e = emission_event(shd.track, li, p, shd.light_pos[li], event, finite)
+                v_light = emission_velocity(shd.track, li, p, shd.light_pos[li], e[0])
                 p = vec3(e[1], e[2], e[3])
                 back = wp.normalize(light_linear_at(shd.track, li, e[0]) * back)
             to_p = p - x
@@ -162,15 +174,25 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
             cos_e = wp.dot(back, l)  # the light emits along -back: towards x when back.l > 0
             if cos_s > scalar(0.0) and cos_e > scalar(0.0):
                 vis = unblocked(geo, finite, event, x, p, s_min, tri, body, skip_dist)
-                total += vis * shd.sample_weight[j] * cos_s * cos_e / (d * d)
-        return total
+                a = vis * shd.sample_weight[j] * cos_s * cos_e / (d * d)
+                dop = scalar(1.0)
+                if shifting:
+                    dop = incident_doppler(l, u, gamma_u, shd.body_decoupled[body], v_light, finite)
+                if dop == scalar(1.0):
+                    total += a
+                else:
+                    rad = doppler_transform(shd.light_radiance[li], dop, shd.doppler_table, shd.color_shift,
+                                            shd.searchlight)
+                    shifted += rad * a
+        return total, shifted
 
     @wp.func
     def shade(geo: Geometry, shd: Shading, finite: int, prim: int, path: scalar, event: vec4, normal: vec3,
-              diffuse: vec3, emissive: vec3):
+              diffuse: vec3, emissive: vec3, u: vec3, gamma_u: scalar):
         """Emission plus Lambert from lights at rest, each behind a null-ray shadow test.
 
-        ``diffuse`` / ``emissive``: the material's at the hit (textured or constant).
+        ``diffuse`` / ``emissive``: the material's at the hit (textured or constant); u, gamma_u:
+        the lit point's velocity (``point_velocity``), for the light's Doppler factor.
         Without lights the surface shows its unlit albedo (docs/spec.md §3).
         """
         tri = geo.prim_tri[prim]
@@ -192,23 +214,27 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         # enters the body's own world-tube at once when (l + u).n <= 0 (the body shadows
         # itself), else it meets the neighbours' copy of the surface within seam / (l + u).n.
         seam = shd.body_seam[body]
-        u = vec3(scalar(0.0))
-        if seam > scalar(0.0) and finite != 0:
-            u, _gu = point_velocity(shd, body, event)
+        u_leave = vec3(scalar(0.0))  # with infinite c the ray and the surface meet at one instant
+        if finite != 0:
+            u_leave = u
         for li in range(shd.light_count):
             kind = shd.light_kind[li]
             if kind == 2:
-                area = area_light(geo, shd, finite, event, x, normal, li, s_min, tri, body,
-                                  wp.max(skip_dist, seam * scalar(SEAM_SLOPE)))
+                area, shifted = area_light(geo, shd, finite, event, x, normal, li, s_min, tri, body,
+                                           wp.max(skip_dist, seam * scalar(SEAM_SLOPE)), u, gamma_u)
                 color = color + wp.cw_mul(diffuse, shd.light_radiance[li]) * area
+                if shd.color_shift != 0 or shd.searchlight != 0:
+                    color = color + wp.cw_mul(diffuse, shifted)
             else:
                 l = shd.light_dir[li]
                 pos = shd.light_pos[li]
+                v_light = vec3(scalar(0.0))  # a distant light has none: it only turns
                 if shd.track.count[li] > 0:
                     if kind == 1:  # a distant light's direction at the hit time (no retardation)
                         l = wp.normalize(light_linear_at(shd.track, li, event[0]) * l)
                     else:  # the sphere's centre at its retarded time
                         e = emission_event(shd.track, li, pos, pos, event, finite)
+                        v_light = emission_velocity(shd.track, li, pos, pos, e[0])
                         pos = vec3(e[1], e[2], e[3])
                 dist = scalar(FAR)
                 atten = scalar(1.0)
@@ -227,7 +253,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
                     vis = scalar(0.0)
                     leave = cos_l
                     if seam > scalar(0.0):
-                        leave = wp.dot(normal, l + u)
+                        leave = wp.dot(normal, l + u_leave)
                     skip = wp.max(skip_dist, seam * wp.min(scalar(1.0) / wp.max(leave, scalar(1e-30)),
                                                            scalar(SEAM_SLOPE)))
                     if leave <= scalar(0.0):
@@ -240,7 +266,11 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
                         if blocker < 0:
                             vis = scalar(1.0)
                     if vis > scalar(0.0):
-                        color = color + wp.cw_mul(diffuse, shd.light_radiance[li]) * (cos_l * atten) * vis
+                        rad = shd.light_radiance[li]
+                        if shd.color_shift != 0 or shd.searchlight != 0:
+                            dop = incident_doppler(l, u, gamma_u, shd.body_decoupled[body], v_light, finite)
+                            rad = doppler_transform(rad, dop, shd.doppler_table, shd.color_shift, shd.searchlight)
+                        color = color + wp.cw_mul(diffuse, rad) * (cos_l * atten) * vis
         return color
 
     @wp.func

@@ -11,6 +11,8 @@ is exactly the ideal RGB at D = 1, so D = 1 is the identity.
 The searchlight scales radiance by D^4: specific intensity I_nu / nu^3 is invariant,
 so the frequency-integrated radiance transforms as D^4 (Weiskopf, Kraus & Ruder 1999).
 """
+import functools
+
 import warp as wp
 
 from warp_st.core.doppler_colour import LOG2_D_MAX, LOG2_D_MIN, NODES_PER_OCTAVE
@@ -18,6 +20,7 @@ from warp_st.core.doppler_colour import LOG2_D_MAX, LOG2_D_MIN, NODES_PER_OCTAVE
 __all__ = ["make_spectrum"]
 
 
+@functools.lru_cache(maxsize=None)
 def make_spectrum(scalar, vec3):
     LO, PER = float(LOG2_D_MIN), float(NODES_PER_OCTAVE)
     # the last node's index, as a float (the clamp) and the last interval's (an int): one

@@ -19,7 +19,7 @@ _DEVICE = "cpu"
 def light_track(k: Kernels, lights, origin: np.ndarray):
     """The ``Track`` of ``lights`` (a light at rest: no probes) relative to ``origin`` (t, x)."""
     ns = np.float32 if k.scalar == wp.float32 else np.float64
-    Track, _linear_at, _emission = make_light_track(k.scalar)
+    Track = make_light_track(k.scalar)[0]
     origin = np.asarray(origin, dtype=np.float64)
     counts = np.array([0 if l.motion is None else len(l.motion.times) for l in lights], dtype=np.int32)
     first = (np.cumsum(counts) - counts).astype(np.int32)
