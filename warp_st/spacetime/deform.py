@@ -23,7 +23,8 @@ import numpy as np
 from warp_st.core.deform import deforming, surface_hull_points
 from warp_st.core.scene import Body, SceneError, surface_keep, surface_triangles
 
-__all__ = ["DEFORM_TOLERANCE", "deforming", "deform_primitive", "deform_slices", "deformed_events", "deformed_triangles"]
+__all__ = ["DEFORM_TOLERANCE", "deforming", "deform_primitive", "deform_slices", "deformed_events", "deformed_triangles",
+           "slice_velocities"]
 
 #: Largest distance between the traced surface and USD's interpolated one, as a fraction
 #: of the body's size (its largest extent over all its samples).
@@ -98,6 +99,16 @@ def deformed_events(body: Body, slices: np.ndarray) -> tuple[np.ndarray, np.ndar
         np.add.at(normals, (slice(None), tris[:, corner]), face)
     normals /= np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-300)
     return ev, normals
+
+
+def slice_velocities(events: np.ndarray) -> np.ndarray:
+    """Each point's lab velocity over the slice interval above each slice, (K+1, P, 3), from
+    its events (K+1, P, 4) (``deformed_events``): between two slices a point moves linearly
+    (every sample time is a slice), so this is its exact velocity there, the uniform motion
+    included. The last slice, the top of the last interval only, repeats the interval below."""
+    dt = np.diff(events[:, 0, 0])[:, None, None]
+    up = np.diff(events[:, :, 1:], axis=0) / np.where(dt > 0.0, dt, 1.0)
+    return np.concatenate([up, up[-1:]])
 
 
 def deformed_triangles(body: Body, bt, longest_edges):

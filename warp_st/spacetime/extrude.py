@@ -17,13 +17,13 @@ sorted ascending, which the kernel relies on to evaluate shared faces bit-identi
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Body, Scene, surface_keep, surface_triangles
-from warp_st.spacetime.deform import deform_slices, deformed_events, deformed_triangles, deforming
+from warp_st.spacetime.deform import deform_slices, deformed_events, deformed_triangles, deforming, slice_velocities
 from warp_st.spacetime.visibility import intervals
 
 __all__ = [
@@ -78,6 +78,11 @@ class SpacetimeMesh(TriangleTables):
         next segment (see ``prism_spans``).
     primitive: what a BVH built over this mesh indexes, "tet" or "prism"
         (``renderer.build_database`` reorders that array into leaf order).
+    body_points: per body, its points per slice when it deforms (the stride between a
+        vertex and the same point at the next slice), else 0, (B,), int32.
+    vertex_velocity: a deforming body's vertices' lab velocities over the slice interval
+        above them (``deform.slice_velocities``), zeros for other bodies, (V, 3); (0, 3)
+        when no body deforms.
     """
 
     vertices: np.ndarray
@@ -87,6 +92,8 @@ class SpacetimeMesh(TriangleTables):
     prism_tri: np.ndarray
     prism_span: np.ndarray
     primitive: str = "tet"
+    body_points: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    vertex_velocity: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     @property
     def tet_count(self) -> int:
@@ -266,6 +273,7 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
     materials: list = []
     mat_index: dict = {}
     verts, vnorms, tets, tet_tri, prisms, prism_tri, spans = [], [], [], [], [], [], []
+    velocities, body_points = [], np.zeros(len(scene.bodies), np.int32)
     tri_normal, tri_smooth, tri_size, tri_body, tri_material, tri_st = [], [], [], [], [], []
     v_base = 0
     t_base = 0
@@ -291,6 +299,8 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
             slices = body_slices(body, part, fine=fine, fraction=fraction)
             if deforming(body):
                 ev, normals = deformed_events(body, slices)
+                velocities.append((v_base, slice_velocities(ev).reshape(-1, 3)))
+                body_points[b_index] = n_pts
             else:
                 ev = _slice_events(bt.local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
                 normals = np.broadcast_to(bt.normals, (len(slices), n_pts, 3))
@@ -306,6 +316,10 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
 
     def cat(parts, shape, dtype):
         return np.concatenate(parts).astype(dtype) if parts else np.zeros(shape, dtype=dtype)
+
+    vertex_velocity = np.zeros((v_base if velocities else 0, 3))
+    for start, rows in velocities:
+        vertex_velocity[start:start + len(rows)] = rows
 
     return SpacetimeMesh(
         vertices=cat(verts, (0, 4), np.float64),
@@ -323,6 +337,8 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
         materials=tuple(materials),
         bodies=tuple(scene.bodies),
         tri_st=cat(tri_st, (0, 3, 2), np.float64),
+        body_points=body_points,
+        vertex_velocity=vertex_velocity,
     )
 
 
