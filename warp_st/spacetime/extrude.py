@@ -138,7 +138,7 @@ MIN_SWEEP_FRACTION = 0.125
 
 def body_slices(
     body: Body, window: tuple[float, float], *, max_segments: int = 4096, fraction: float | None = None,
-    fine: bool = True,
+    fine: bool = True, view=None,
 ) -> np.ndarray:
     """Slice times covering ``window`` for one body, ascending, at least two.
 
@@ -146,14 +146,15 @@ def body_slices(
     ``segment_sweep(body)`` per segment (``fraction`` x its size when given; with
     ``fine`` False, SWEEP_FRACTION x its size: the coarser rule the renderer falls
     back to when the finer one would not fit in memory): the 4D boxes of its
-    primitives then stay within a triangle or two of their triangle.
+    primitives then stay within a triangle or two of their triangle. A deforming body's
+    slices also follow USD within half a pixel of ``view`` (``deform.SliceView``).
     """
     t0, t1 = float(window[0]), float(window[1])
     if fraction is None and not fine:
         fraction = SWEEP_FRACTION
     size = segment_sweep(body) if fraction is None else fraction * _body_size(body)
     if deforming(body):  # per-vertex worldlines from USD's samples (docs/spec.md §2.2)
-        return deform_slices(body, window, size, max_segments=max_segments)
+        return deform_slices(body, window, size, max_segments=max_segments, view=view)
     sweep = body.speed * (t1 - t0)
     k = 1 if sweep <= size else int(min(np.ceil(sweep / size), max_segments))
     return np.linspace(t0, t1, k + 1)
@@ -260,7 +261,8 @@ def body_triangles(body: Body, materials: list, mat_index: dict) -> BodyTriangle
     )
 
 
-def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: float | None = None) -> SpacetimeMesh:
+def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: float | None = None,
+                  view=None) -> SpacetimeMesh:
     """Extrude every body of ``scene`` over its visible time window.
 
     windows[i] is the lab-time window of body i that the frames can see (already
@@ -269,6 +271,7 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
     fine: time segments by ``segment_sweep`` (default) or by SWEEP_FRACTION of the body.
     fraction: when given, time segments in which each body sweeps ``fraction`` x its
     size, whatever ``fine`` says (``body_slices``; for measuring the rule).
+    view: the render's cameras (``deform.SliceView``) for deforming bodies' slices.
     """
     materials: list = []
     mat_index: dict = {}
@@ -296,7 +299,7 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
         # The prisms' and tetrahedra's barycentrics weigh the corners in ascending vertex order.
         tri_st.append(np.take_along_axis(bt.tri_st, np.argsort(tris, axis=1)[:, :, None], axis=1))
         for part in parts:  # each interval on its own
-            slices = body_slices(body, part, fine=fine, fraction=fraction)
+            slices = body_slices(body, part, fine=fine, fraction=fraction, view=view)
             if deforming(body):
                 ev, normals = deformed_events(body, slices)
                 velocities.append((v_base, slice_velocities(ev).reshape(-1, 3)))
