@@ -44,6 +44,19 @@ def mesh_stage(name: str, samples: dict, counts, indices, extra: str = "", heade
 '''
 
 
+def translating_quad_stages(extra: str = "") -> tuple[str, str]:
+    """Two stages: a 3 x 2 quad grid (30 to the left at time 0) whose points are sampled at 0
+    and 100 moved by (60, 0, 0) (0.6c), and its twin at time 0 moved by spacetime:fourVelocity
+    (1, 0.6, 0, 0), decoupled; ``extra``: more prims for both."""
+    pts, counts, indices = grid(4, 3, 3.0, 2.0)
+    pts = pts - (30.0, 0.0, 0.0)
+    deforming = mesh_stage("Quad", {0.0: pts, 100.0: pts + (60.0, 0.0, 0.0)}, counts, indices) + extra
+    uniform = (mesh_stage("Quad", {0.0: pts}, counts, indices) + extra).replace(
+        'def Mesh "Quad"\n{', 'def Mesh "Quad" (prepend apiSchemas = ["SpacetimeBodyAPI"])\n{\n    custom double4 '
+        'spacetime:fourVelocity = (1, 0.6, 0, 0)\n    custom bool spacetime:lorentzDecoupled = true')
+    return deforming, uniform
+
+
 def flag_samples(t_end: float = 20.0):
     """A 9 x 5 flag 4 wide and 2 high whose points move at different speeds: at ``t_end``
     each is lifted along Z by a wave and its right half pushed along +X (time samples 0 and t_end)."""

@@ -22,7 +22,7 @@ from warp_st.rendering.renderer import Renderer
 from warp_st.spacetime.adaptive import min_pixel_angle
 
 from animation_stages import hit_events, write
-from deform_stages import flag_samples, grid, mesh_stage, skinned_box_stage, usd_surface_distance
+from deform_stages import flag_samples, mesh_stage, skinned_box_stage, translating_quad_stages, usd_surface_distance
 
 W, H = 128, 96
 #: The surface tests' resolution: half a pixel is 1.7e-3 of the distance (< issue 18's 2e-3).
@@ -53,13 +53,8 @@ def test_translating_points_render_as_four_velocity(tmp_path):
     events lie inside [0, 100]. Masks equal except silhouette pixels (the tet and rigid
     databases round the same edge differently), |d eventTime| <= 1e-3 and |dZ| <= 1e-4
     relative (float32 rounding of both is ~1e-6 of values ~50)."""
-    pts, counts, indices = grid(4, 3, 3.0, 2.0)
-    pts = pts - (30.0, 0.0, 0.0)
-    deforming = warp_st.load(write(tmp_path, "d.usda", mesh_stage(
-        "Quad", {0.0: pts, 100.0: pts + (60.0, 0.0, 0.0)}, counts, indices)))
-    uniform_text = mesh_stage("Quad", {0.0: pts}, counts, indices).replace(
-        'def Mesh "Quad"\n{', 'def Mesh "Quad" (prepend apiSchemas = ["SpacetimeBodyAPI"])\n{\n    custom double4 '
-        'spacetime:fourVelocity = (1, 0.6, 0, 0)\n    custom bool spacetime:lorentzDecoupled = true')
+    deforming_text, uniform_text = translating_quad_stages()
+    deforming = warp_st.load(write(tmp_path, "d.usda", deforming_text))
     uniform = warp_st.load(write(tmp_path, "u.usda", uniform_text))
     assert deforming.bodies[0].surfaces[0].samples is not None and uniform.bodies[0].surfaces[0].samples is None
     seen = 0
