@@ -24,7 +24,7 @@ from warp_st.rendering.camera import pixel_directions
 from warp_st.rendering.renderer import Renderer
 from warp_st.spacetime.adaptive import min_pixel_angle
 
-from animation_stages import hit_events, write
+from animation_stages import CHROME_DOME, hit_events, write
 from deform_stages import grid, mesh_stage, translating_quad_stages
 
 W, H = 96, 72
@@ -118,24 +118,6 @@ def test_receding_points_show_the_side_their_velocity_picks(tmp_path):
     assert far > 50 and near > 50
 
 
-CHROME = '''def DomeLight "Sky"
-{
-    float inputs:intensity = 1
-}
-def Material "Chrome"
-{
-    token outputs:surface.connect = </Chrome/Surface.outputs:surface>
-    def Shader "Surface"
-    {
-        uniform token info:id = "UsdPreviewSurface"
-        color3f inputs:diffuseColor = (1, 1, 1)
-        float inputs:metallic = 1
-        token outputs:surface
-    }
-}
-'''
-
-
 def test_approaching_mirror_points_reflect_with_their_velocity(tmp_path):
     """A mirror quad (metallic 1, diffuse 1) whose points approach the camera at (0.1, 0,
     0.15) reflecting a uniform white dome, searchlight on, one bounce: the reflected light's
@@ -145,7 +127,7 @@ def test_approaching_mirror_points_reflect_with_their_velocity(tmp_path):
     direction and energy ~1e-6 relative, x 4 in the searchlight's fourth power; measured
     1.4e-6); a mirror at rest would reflect radiance 1."""
     deforming, uniform = (warp_st.load(write(tmp_path, name, text)) for name, text in zip(
-        ("d.usda", "u.usda"), translating_quad_stages(CHROME, start=(-6.0, 1.0, -10.0), velocity=(0.1, 0.0, 0.15),
+        ("d.usda", "u.usda"), translating_quad_stages(CHROME_DOME, start=(-6.0, 1.0, -10.0), velocity=(0.1, 0.0, 0.15),
                                                       inside="rel material:binding = </Chrome>",
                                                       schemas=("MaterialBindingAPI",))))
     frame = 50.0
