@@ -29,10 +29,13 @@ def grid(nx: int, ny: int, width: float, height: float) -> tuple[np.ndarray, lis
     return pts, [4] * ((nx - 1) * (ny - 1)), indices
 
 
-def mesh_stage(name: str, samples: dict, counts, indices, extra: str = "", header: str = HEADER) -> str:
-    """A stage with the camera of ``HEADER`` and one Mesh /``name`` whose points are time-sampled."""
+def mesh_stage(name: str, samples: dict, counts, indices, extra: str = "", header: str = HEADER,
+               schemas: tuple = ()) -> str:
+    """A stage with the camera of ``HEADER`` and one Mesh /``name`` whose points are time-sampled
+    (``schemas``: API schemas it applies; ``extra``: more of its attributes)."""
     body = ",\n        ".join(f"{t!r}: {_points(p)}" for t, p in samples.items())
-    return header + f'''def Mesh "{name}"
+    api = " (prepend apiSchemas = [" + ", ".join(f'"{x}"' for x in schemas) + "])" if schemas else ""
+    return header + f'''def Mesh "{name}"{api}
 {{
     {extra}
     point3f[] points.timeSamples = {{
@@ -42,6 +45,24 @@ def mesh_stage(name: str, samples: dict, counts, indices, extra: str = "", heade
     int[] faceVertexIndices = {list(indices)}
 }}
 '''
+
+
+def translating_quad_stages(extra: str = "", *, start=(-30.0, 0.0, 0.0), velocity=(0.6, 0.0, 0.0), inside: str = "",
+                            schemas: tuple = (), yaw: float = 0.0) -> tuple[str, str]:
+    """Two stages: a 3 x 2 quad grid (in the XY plane turned ``yaw`` degrees about +Y, its
+    centre at ``start`` at time 0) whose points are sampled at 0 and 100 moved by 100
+    ``velocity``, and its twin at time 0 moved by spacetime:fourVelocity (1, velocity),
+    decoupled. ``extra``: more prims for both; ``inside``, ``schemas``: more attributes and
+    API schemas of the quad in both."""
+    pts, counts, indices = grid(4, 3, 3.0, 2.0)
+    c, s = np.cos(np.radians(yaw)), np.sin(np.radians(yaw))
+    pts = pts @ np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]]) + np.asarray(start, dtype=np.float64)
+    v = [float(x) for x in velocity]
+    deforming = mesh_stage("Quad", {0.0: pts, 100.0: pts + 100.0 * np.array(v)}, counts, indices, inside, schemas=schemas)
+    twin = (f"custom double4 spacetime:fourVelocity = (1, {v[0]!r}, {v[1]!r}, {v[2]!r})\n"
+            f"    custom bool spacetime:lorentzDecoupled = true\n    {inside}")
+    uniform = mesh_stage("Quad", {0.0: pts}, counts, indices, twin, schemas=("SpacetimeBodyAPI", *schemas))
+    return deforming + extra, uniform + extra
 
 
 def flag_samples(t_end: float = 20.0):

@@ -221,7 +221,7 @@ def _make_render(scalar, k, trace, Geometry):
             diffuse, emissive, metal = surface_inputs(shd.tex, prim, tri, lam, mat, shd.mat_diffuse[mat],
                                                       shd.mat_emissive[mat], shd.mat_metallic[mat])
             body = shd.tri_body[tri]
-            u, gamma_u = point_velocity(shd, body, event)  # the emitting point's own velocity
+            u, gamma_u = point_velocity(geo, shd, prim, lam, body, event)  # the emitting point's own velocity
             normal = shading_normal(geo, shd, prim, lam, n, u)
             if metal < scalar(1.0):
                 local = shade(geo, shd, finite, prim, path, event, normal, diffuse, emissive, u, gamma_u)
@@ -306,6 +306,7 @@ def _make_render(scalar, k, trace, Geometry):
         alpha = scalar(0.0)
         prim = int(-1)
         s = scalar(0.0)
+        lam = vec4(scalar(0.0))
         src_t = scalar(0.0)
         src_b = int(0)
         visits = int(0)
@@ -317,7 +318,7 @@ def _make_render(scalar, k, trace, Geometry):
             ray_n = n
             if k > 0:
                 ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
-            c, a, p_k, s_k, _lam, st_k, sb_k, ray_visits, ray_ovf = trace_path(geo, shd, cam, ray_o, ray_n)
+            c, a, p_k, s_k, lam_k, st_k, sb_k, ray_visits, ray_ovf = trace_path(geo, shd, cam, ray_o, ray_n)
             visits += ray_visits
             overflow = wp.max(overflow, ray_ovf)
             if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
@@ -330,6 +331,7 @@ def _make_render(scalar, k, trace, Geometry):
                 alpha = a
                 prim = p_k
                 s = s_k
+                lam = lam_k
                 src_t = st_k
                 src_b = sb_k
             else:
@@ -382,7 +384,7 @@ def _make_render(scalar, k, trace, Geometry):
 
         # D = (k.u_cam)/(k.u_body), k = (1, -n): -k.u = u_t + n.u_x. With infinite
         # light speed only time dilation is left: the limit is u_cam_t / u_body_t.
-        u, gamma_u = point_velocity(shd, body, event)  # the emitting point's (docs/spec.md §2.1)
+        u, gamma_u = point_velocity(geo, shd, prim, lam, body, event)  # the emitting point's (docs/spec.md §2.1, §2.2)
         ub = four_velocity(u, gamma_u, dec)
         uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
         dop = uc[0] / ub[0]

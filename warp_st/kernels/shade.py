@@ -52,6 +52,8 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         body_spins: wp.array(dtype=wp.int32)  # 1: the body turns (an animated piece), its points move with
         body_spin: wp.array(dtype=mat33)  # v + W (x - o(t)), W = Body.spin (docs/spec.md §2.1)
         body_seam: wp.array(dtype=scalar)  # Body.seam: an animated piece's distance from its neighbours
+        body_points: wp.array(dtype=wp.int32)  # > 0: the body deforms, its points per slice (tet path, §2.2)
+        vert_velocity: wp.array(dtype=vec3)  # a deforming body's vertex: its velocity over the slice above it
         light_kind: wp.array(dtype=wp.int32)  # 0 sphere (radius 0: point), 1 distant, 2 area (rect, disk)
         light_pos: wp.array(dtype=vec3)
         light_dir: wp.array(dtype=vec3)
@@ -75,10 +77,31 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         return scalar(SELF_EPS) * (scalar(1.0) + wp.abs(path))
 
     @wp.func
-    def point_velocity(shd: Shading, body: int, event: vec4):
+    def corner_velocity(shd: Shading, j: int, top: int, stride: int) -> vec3:
+        """A deforming body's tetrahedron corner j: its point's velocity over the tetrahedron's
+        slice interval (a corner at or past ``top`` is the point's event at the next slice)."""
+        if j >= top:
+            return shd.vert_velocity[j - stride]
+        return shd.vert_velocity[j]
+
+    @wp.func
+    def point_velocity(geo: Geometry, shd: Shading, prim: int, lam: vec4, body: int, event: vec4):
         """(u, its gamma): the lab velocity of ``body``'s point at ``event`` (relative to
         the render origin), u = v + W (x - o(t)) with o(t) = o + v (t - t_ref) the pivot;
-        a body that does not turn gives (v, its gamma) as is. Decoupled: gamma 1."""
+        a body that does not turn gives (v, its gamma) as is. Decoupled: gamma 1.
+
+        A deforming body (decoupled, §2.2): the barycentric blend (``lam``) of the corners'
+        point velocities over the slice interval holding the hit. Tetrahedron ``prim``'s
+        vertex indices ascend and its lowest, a, is its triangle's lowest at the bottom
+        slice; a top corner is a bottom point's index + the body's points per slice, so
+        exactly the corners >= a + stride are tops."""
+        stride = shd.body_points[body]
+        if stride > 0:
+            idx = geo.prim_vidx[prim]
+            top = idx[0] + stride
+            u = (lam[0] * corner_velocity(shd, idx[0], top, stride) + lam[1] * corner_velocity(shd, idx[1], top, stride)
+                 + lam[2] * corner_velocity(shd, idx[2], top, stride) + lam[3] * corner_velocity(shd, idx[3], top, stride))
+            return u, scalar(1.0)
         v = shd.body_velocity[body]
         g = shd.body_gamma[body]
         if shd.body_spins[body] != 0:

@@ -96,7 +96,7 @@ def texture_bytes(scene: Scene) -> int:
     return 2 * sum(int(a.nbytes) for a in arrays.values())
 
 
-def count_database(scene: Scene, windows, *, fine: bool = True, fraction: float | None = None
+def count_database(scene: Scene, windows, *, fine: bool = True, fraction: float | None = None, view=None
                    ) -> tuple[int, int, list[int]]:
     """(tetrahedra, vertices, tetrahedra per body) the extrusion of ``scene`` over ``windows`` makes.
 
@@ -110,7 +110,7 @@ def count_database(scene: Scene, windows, *, fine: bool = True, fraction: float 
         n_body = 0
         parts = intervals(window)
         if parts and body.surfaces:
-            segments = sum(len(body_slices(body, part, fine=fine, fraction=fraction)) - 1 for part in parts)
+            segments = sum(len(body_slices(body, part, fine=fine, fraction=fraction, view=view)) - 1 for part in parts)
             for surf in body.surfaces:
                 n_tri = len(surface_triangles(surf))
                 if n_tri:
@@ -175,10 +175,10 @@ def check_limits(scene: Scene, windows, *, width: int, height: int, samples: int
 
 def check_resources(scene: Scene, windows, *, width: int, height: int, samples: int = 1, max_depth: int = 0,
                     max_memory: int | None = None, fine: bool = True, fraction: float | None = None,
-                    rigid: bool = False) -> int:
+                    rigid: bool = False, view=None) -> int:
     """Refuse (SceneError; MemoryRefusal over ``max_memory``) a render that would exceed
     ``max_memory`` or the kernels' ranges. ``fine`` and ``fraction``: the
-    time-segment rule (``extrude.body_slices``); ``rigid``: the two-level database instead of the
+    time-segment rule (``extrude.body_slices``; ``view``: its cameras); ``rigid``: the two-level database instead of the
     extrusion (its size is the scene's triangles, whatever the windows). Called after
     the visibility windows and before the build. Returns the estimate.
     """
@@ -191,7 +191,7 @@ def check_resources(scene: Scene, windows, *, width: int, height: int, samples: 
         estimate, what, per_body = estimate_rigid_bytes(sum(tris), verts, pixels), f"{sum(tris):,} triangles", tris
         unit = "triangles"
     else:
-        tets, verts, per_body = count_database(scene, windows, fine=fine, fraction=fraction)
+        tets, verts, per_body = count_database(scene, windows, fine=fine, fraction=fraction, view=view)
         estimate, what, unit = estimate_bytes(tets, verts, pixels), f"{tets:,} tetrahedra", "tetrahedra"
     textures = texture_bytes(scene)
     if textures:

@@ -69,6 +69,9 @@ class ShadingTables:
         first = {}
         objects = np.array([first.setdefault(b.prim_path, i) for i, b in enumerate(bodies)], dtype=np.int32)
         self.body_object = wp.array(objects, dtype=wp.int32, device=_DEVICE)
+        # Deforming bodies' point velocities (the tet path, ``StaticArrays``): none here.
+        self.body_points = wp.zeros(len(bodies), dtype=wp.int32, device=_DEVICE)
+        self.vert_velocity = wp.zeros(0, dtype=k.vec3, device=_DEVICE)
 
 
 class StaticArrays(ShadingTables):
@@ -85,6 +88,9 @@ class StaticArrays(ShadingTables):
             vidx, tri = mesh.tets, mesh.tet_tri
             if self.textures.info.shape[0]:  # which triangle corner each tetrahedron vertex is
                 self.textures.prim_corner = wp.array(tet_corners(mesh.tets), dtype=wp.int32, device=_DEVICE)
+            if len(mesh.vertex_velocity):  # a body deforms: its points' own velocities (kernels/shade.py)
+                self.body_points = wp.array(mesh.body_points, dtype=wp.int32, device=_DEVICE)
+                self.vert_velocity = wp.array(mesh.vertex_velocity.astype(self.np_scalar), dtype=k.vec3, device=_DEVICE)
         self.prim_vidx = wp.array(vidx.astype(np.int32), dtype=wp.vec4i, device=_DEVICE)
         self.prim_tri = wp.array(tri.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         # The kernel traces the 4-wide form of the BVH (bvh_wide.py).
@@ -174,6 +180,8 @@ def make_shading(
     s.body_spins = static.body_spins
     s.body_spin = static.body_spin
     s.body_seam = static.body_seam
+    s.body_points = static.body_points
+    s.vert_velocity = static.vert_velocity
     kinds = np.array([_LIGHT_KIND[l.kind] for l in lights], dtype=np.int32)
     pos = np.array([l.position for l in lights], dtype=np.float64).reshape(-1, 3) - origin[1:]
     dirs = np.array([l.direction for l in lights], dtype=np.float64).reshape(-1, 3)

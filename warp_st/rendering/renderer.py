@@ -32,7 +32,7 @@ from warp_st.rendering.tile_pool import tile_pool
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.animation import animated_bodies, animation_cuts
-from warp_st.spacetime.deform import deform_primitive
+from warp_st.spacetime.deform import deform_primitive, deforming, slice_view
 from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
 from warp_st.spacetime.rigid import all_exact_quadrics, quadric_body
 from warp_st.spacetime.visibility import union, visibility_windows
@@ -292,6 +292,11 @@ class Renderer:
             pieces = scene
             bodies = cache.tessellated(tessellation, lambda: retessellated(pieces, self.sphere_segments).bodies)
             scene = dataclasses.replace(self.scene, bodies=bodies)
+        # Deforming bodies (docs/spec.md §2.2): slices within half a pixel in every frame.
+        self.slice_view = (slice_view(ends, width=self.width, height=self.height)
+                           if any(deforming(b) for b in scene.bodies) else None)
+        if self.slice_view is not None:
+            tessellation += (("deform", self.slice_view),)
         # The measuring options build a database of their own, neither looked up nor cached.
         measuring = self.sweep_fraction is not None or self.adjust_windows is not None
         if measuring:
@@ -361,7 +366,7 @@ class Renderer:
         # tessellated bodies' triangles unless that does not fit; then they fall back to
         # the coarser rule (faster to build, slower to trace).
         limits = dict(width=self.width, height=self.height, samples=self.samples, max_depth=self.max_depth,
-                      max_memory=self.max_memory, fraction=self.sweep_fraction)
+                      max_memory=self.max_memory, fraction=self.sweep_fraction, view=self.slice_view)
         try:
             check_resources(scene, windows, **limits)
             fine = True
@@ -369,7 +374,7 @@ class Renderer:
             check_resources(scene, windows, fine=False, **limits)
             fine = False
         mesh, bvh = build_database(scene, windows, self.primitive, fine=fine,
-                                   fraction=self.sweep_fraction)
+                                   fraction=self.sweep_fraction, view=self.slice_view)
         t2 = time.perf_counter()
         built = _BuildStats(extrude_seconds=t2 - bvh.build_seconds - t0, bvh_seconds=bvh.build_seconds)
         return database_cache.Database(tessellation=tessellation, primitive=self.primitive, fine=fine,
@@ -555,7 +560,7 @@ class Renderer:
 
 
 def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fine: bool = True,
-                   fraction: float | None = None) -> tuple[SpacetimeMesh, FlatBVH]:
+                   fraction: float | None = None, view=None) -> tuple[SpacetimeMesh, FlatBVH]:
     """Extrude ``scene`` over per-body time ``windows`` and build the 4D BVH.
 
     ``primitive``: what the BVH's leaves hold and the kernels intersect: "prism" (one
@@ -563,13 +568,15 @@ def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fin
     uniformly, so this is exact) or "tet" (three tetrahedra per prism, the general
     path). The returned mesh stores that primitive array in BVH leaf order (a leaf is
     a contiguous range), so primitive indices refer to that order. ``fine`` and
-    ``fraction``: the time-segment rule (``extrude.body_slices``).
+    ``fraction``: the time-segment rule (``extrude.body_slices``); ``view``: the cameras
+    deforming bodies' slices follow within half a pixel (``deform.SliceView``).
     """
     from warp_st.accel.bvh import build_bvh
 
     if primitive not in ("prism", "tet"):
         raise ValueError(f"primitive must be prism or tet, got {primitive!r}")
-    mesh = dataclasses.replace(extrude_scene(scene, windows, fine=fine, fraction=fraction), primitive=primitive)
+    mesh = dataclasses.replace(extrude_scene(scene, windows, fine=fine, fraction=fraction, view=view),
+                               primitive=primitive)
     lo, hi = mesh.prim_boxes() if mesh.prim_count else (np.zeros((0, 4)), np.zeros((0, 4)))
     bvh = build_bvh(lo, hi, primitive=primitive)
     if primitive == "prism":

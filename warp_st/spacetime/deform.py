@@ -9,9 +9,13 @@ tetrahedra through the sampled events, exact there. Between two slices a vertex 
 linearly, as USD interpolates; the tetrahedra's surface at a lab time t departs from the
 triangle through the interpolated vertices by at most f (1 - f) max |d_i - d_j| over the
 triangle's corners i, j (d the corners' displacements over the slice interval, f its
-fraction at t), so k is the smallest with max |d_i - d_j| / (4 k) <= DEFORM_TOLERANCE x
-the body's size. k also keeps each slice's largest displacement within the extrusion's
-sweep per segment (``extrude.segment_sweep``, the 4D boxes' rule).
+fraction at t), so k is the smallest with max |d_i - d_j| / (4 k) <= the tolerance. With the
+render's cameras (a ``SliceView``) the tolerance is the rigid animated path's half-pixel rule
+(``spacetime.animation``): half a pixel at the nearest distance any camera can see the body
+in that sample interval, over the cameras' and the points' angular magnification; without
+(extrusions built for tests) DEFORM_TOLERANCE x the body's size. k also keeps each slice's
+largest displacement within the extrusion's sweep per segment (``extrude.segment_sweep``,
+the 4D boxes' rule).
 """
 from __future__ import annotations
 
@@ -22,12 +26,57 @@ import numpy as np
 
 from warp_st.core.deform import deforming, surface_hull_points
 from warp_st.core.scene import Body, SceneError, surface_keep, surface_triangles
+from warp_st.spacetime.adaptive import _camera_stretch, min_pixel_angle
+from warp_st.spacetime.animation import FLOOR_FRACTION
 
-__all__ = ["DEFORM_TOLERANCE", "deforming", "deform_primitive", "deform_slices", "deformed_events", "deformed_triangles"]
+__all__ = ["DEFORM_TOLERANCE", "deforming", "deform_primitive", "deform_slices", "deformed_events", "deformed_triangles",
+           "slice_velocities", "SliceView", "slice_view"]
 
 #: Largest distance between the traced surface and USD's interpolated one, as a fraction
 #: of the body's size (its largest extent over all its samples).
 DEFORM_TOLERANCE = 2.5e-4
+
+
+@dataclasses.dataclass(frozen=True)
+class SliceView:
+    """The render's cameras as the slices' half-pixel rule sees them (hashable: a database
+    cache key). positions: each camera event's position, ((x, y, z), ...); stretch: the
+    angular magnification bound of each (``adaptive._camera_stretch``); angle: the smallest
+    pixel angle of any (radians); pixels: the tolerance in pixels."""
+
+    positions: tuple
+    stretch: tuple
+    angle: float
+    pixels: float = 0.5
+
+
+def slice_view(cameras, *, width: int, height: int, pixels: float = 0.5) -> SliceView:
+    """The ``SliceView`` of camera states ``cameras`` rendering ``width`` x ``height``."""
+    cameras = list(cameras)
+    return SliceView(positions=tuple(tuple(float(x) for x in np.asarray(c.position, dtype=np.float64))
+                                     for c in cameras),
+                     stretch=tuple(float(_camera_stretch(c)) for c in cameras),
+                     angle=float(min((min_pixel_angle(c, width, height) for c in cameras), default=np.inf)),
+                     pixels=float(pixels))
+
+
+def _view_tolerance(view: SliceView, pa: np.ndarray, pb: np.ndarray, dt: float) -> float:
+    """The half-pixel tolerance of a sample interval whose points go from ``pa`` to ``pb``
+    (linearly, in ``dt``): every surface point in it lies in the box of both ends' points,
+    so no camera sees it nearer than the box; a decoupled body's retarded image is
+    magnified by up to gamma of its fastest point (inf at >= c). Never below FLOOR_FRACTION
+    of the body's extent at the ends (a camera inside the box, a point at >= c)."""
+    both = np.concatenate([pa, pb])
+    lo, hi = both.min(axis=0), both.max(axis=0)
+    speed = float(np.linalg.norm(pb - pa, axis=1).max()) / dt if dt > 0.0 and len(pa) else 0.0
+    body_stretch = 1.0 / math.sqrt(1.0 - speed * speed) if speed < 1.0 else np.inf
+    tol = np.inf
+    for position, stretch in zip(view.positions, view.stretch):
+        d = float(np.linalg.norm(np.maximum(np.maximum(lo - position, position - hi), 0.0)))
+        s = stretch * body_stretch
+        tol = min(tol, view.pixels * view.angle * d / s if d > 0.0 and np.isfinite(s) else 0.0)
+    extent = max(float(np.max(pa.max(axis=0) - pa.min(axis=0))), float(np.max(pb.max(axis=0) - pb.min(axis=0))))
+    return max(tol, FLOOR_FRACTION * max(extent, 1e-6))
 
 
 def _surfaces(body: Body) -> list:
@@ -56,16 +105,18 @@ def _size(body: Body) -> float:
     return max(float(np.max(pts.max(axis=0) - pts.min(axis=0))), 1e-6)
 
 
-def deform_slices(body: Body, window, sweep: float, *, max_segments: int = 4096) -> np.ndarray:
+def deform_slices(body: Body, window, sweep: float, *, max_segments: int = 4096,
+                  view: SliceView | None = None) -> np.ndarray:
     """Slice times covering ``window`` for a deforming body, ascending, at least two: its
     sample times inside it, each interval split evenly until the tetrahedra follow USD's
-    linear interpolation within DEFORM_TOLERANCE x its size and no point moves more than
-    ``sweep`` per slice. At most ``max_segments`` parts per interval."""
+    linear interpolation within half a pixel of ``view``'s cameras (without a view:
+    DEFORM_TOLERANCE x its size) and no point moves more than ``sweep`` per slice. At most
+    ``max_segments`` parts per interval."""
     lo, hi = float(window[0]), float(window[1])
     times = np.unique(np.concatenate([s.samples.times for s in body.surfaces if s.samples is not None]))
     knots = [lo, *[float(t) for t in times if lo < t < hi], hi]
     tris = _triangles(body)
-    tol = DEFORM_TOLERANCE * _size(body)
+    fixed = DEFORM_TOLERANCE * _size(body)
     out = [lo]
     pa = points_at(body, lo)
     for a, b in zip(knots[:-1], knots[1:]):
@@ -76,6 +127,7 @@ def deform_slices(body: Body, window, sweep: float, *, max_segments: int = 4096)
             spread = max(float(np.linalg.norm(d[tris[:, i]] - d[tris[:, j]], axis=1).max())
                          for i, j in ((0, 1), (1, 2), (0, 2)))
         moved = float(np.linalg.norm(d, axis=1).max()) if len(d) else 0.0
+        tol = fixed if view is None else _view_tolerance(view, pa, pb, b - a)
         k = max(1, math.ceil(0.25 * spread / tol), math.ceil(moved / sweep) if sweep > 0.0 else 1)
         out.extend(np.linspace(a, b, min(k, max_segments) + 1)[1:].tolist())
         pa = pb
@@ -98,6 +150,16 @@ def deformed_events(body: Body, slices: np.ndarray) -> tuple[np.ndarray, np.ndar
         np.add.at(normals, (slice(None), tris[:, corner]), face)
     normals /= np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-300)
     return ev, normals
+
+
+def slice_velocities(events: np.ndarray) -> np.ndarray:
+    """Each point's lab velocity over the slice interval above each slice, (K+1, P, 3), from
+    its events (K+1, P, 4) (``deformed_events``): between two slices a point moves linearly
+    (every sample time is a slice), so this is its exact velocity there, the uniform motion
+    included. The last slice, the top of the last interval only, repeats the interval below."""
+    dt = np.diff(events[:, 0, 0])[:, None, None]
+    up = np.diff(events[:, :, 1:], axis=0) / np.where(dt > 0.0, dt, 1.0)
+    return np.concatenate([up, up[-1:]])
 
 
 def deformed_triangles(body: Body, bt, longest_edges):

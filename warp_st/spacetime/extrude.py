@@ -17,13 +17,13 @@ sorted ascending, which the kernel relies on to evaluate shared faces bit-identi
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Body, Scene, surface_keep, surface_triangles
-from warp_st.spacetime.deform import deform_slices, deformed_events, deformed_triangles, deforming
+from warp_st.spacetime.deform import deform_slices, deformed_events, deformed_triangles, deforming, slice_velocities
 from warp_st.spacetime.visibility import intervals
 
 __all__ = [
@@ -78,6 +78,11 @@ class SpacetimeMesh(TriangleTables):
         next segment (see ``prism_spans``).
     primitive: what a BVH built over this mesh indexes, "tet" or "prism"
         (``renderer.build_database`` reorders that array into leaf order).
+    body_points: per body, its points per slice when it deforms (the stride between a
+        vertex and the same point at the next slice), else 0, (B,), int32.
+    vertex_velocity: a deforming body's vertices' lab velocities over the slice interval
+        above them (``deform.slice_velocities``), zeros for other bodies, (V, 3); (0, 3)
+        when no body deforms.
     """
 
     vertices: np.ndarray
@@ -87,6 +92,8 @@ class SpacetimeMesh(TriangleTables):
     prism_tri: np.ndarray
     prism_span: np.ndarray
     primitive: str = "tet"
+    body_points: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    vertex_velocity: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     @property
     def tet_count(self) -> int:
@@ -131,7 +138,7 @@ MIN_SWEEP_FRACTION = 0.125
 
 def body_slices(
     body: Body, window: tuple[float, float], *, max_segments: int = 4096, fraction: float | None = None,
-    fine: bool = True,
+    fine: bool = True, view=None,
 ) -> np.ndarray:
     """Slice times covering ``window`` for one body, ascending, at least two.
 
@@ -139,14 +146,15 @@ def body_slices(
     ``segment_sweep(body)`` per segment (``fraction`` x its size when given; with
     ``fine`` False, SWEEP_FRACTION x its size: the coarser rule the renderer falls
     back to when the finer one would not fit in memory): the 4D boxes of its
-    primitives then stay within a triangle or two of their triangle.
+    primitives then stay within a triangle or two of their triangle. A deforming body's
+    slices also follow USD within half a pixel of ``view`` (``deform.SliceView``).
     """
     t0, t1 = float(window[0]), float(window[1])
     if fraction is None and not fine:
         fraction = SWEEP_FRACTION
     size = segment_sweep(body) if fraction is None else fraction * _body_size(body)
     if deforming(body):  # per-vertex worldlines from USD's samples (docs/spec.md §2.2)
-        return deform_slices(body, window, size, max_segments=max_segments)
+        return deform_slices(body, window, size, max_segments=max_segments, view=view)
     sweep = body.speed * (t1 - t0)
     k = 1 if sweep <= size else int(min(np.ceil(sweep / size), max_segments))
     return np.linspace(t0, t1, k + 1)
@@ -253,7 +261,8 @@ def body_triangles(body: Body, materials: list, mat_index: dict) -> BodyTriangle
     )
 
 
-def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: float | None = None) -> SpacetimeMesh:
+def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: float | None = None,
+                  view=None) -> SpacetimeMesh:
     """Extrude every body of ``scene`` over its visible time window.
 
     windows[i] is the lab-time window of body i that the frames can see (already
@@ -262,10 +271,12 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
     fine: time segments by ``segment_sweep`` (default) or by SWEEP_FRACTION of the body.
     fraction: when given, time segments in which each body sweeps ``fraction`` x its
     size, whatever ``fine`` says (``body_slices``; for measuring the rule).
+    view: the render's cameras (``deform.SliceView``) for deforming bodies' slices.
     """
     materials: list = []
     mat_index: dict = {}
     verts, vnorms, tets, tet_tri, prisms, prism_tri, spans = [], [], [], [], [], [], []
+    velocities, body_points = [], np.zeros(len(scene.bodies), np.int32)
     tri_normal, tri_smooth, tri_size, tri_body, tri_material, tri_st = [], [], [], [], [], []
     v_base = 0
     t_base = 0
@@ -288,9 +299,11 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
         # The prisms' and tetrahedra's barycentrics weigh the corners in ascending vertex order.
         tri_st.append(np.take_along_axis(bt.tri_st, np.argsort(tris, axis=1)[:, :, None], axis=1))
         for part in parts:  # each interval on its own
-            slices = body_slices(body, part, fine=fine, fraction=fraction)
+            slices = body_slices(body, part, fine=fine, fraction=fraction, view=view)
             if deforming(body):
                 ev, normals = deformed_events(body, slices)
+                velocities.append((v_base, slice_velocities(ev).reshape(-1, 3)))
+                body_points[b_index] = n_pts
             else:
                 ev = _slice_events(bt.local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
                 normals = np.broadcast_to(bt.normals, (len(slices), n_pts, 3))
@@ -306,6 +319,10 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
 
     def cat(parts, shape, dtype):
         return np.concatenate(parts).astype(dtype) if parts else np.zeros(shape, dtype=dtype)
+
+    vertex_velocity = np.zeros((v_base if velocities else 0, 3))
+    for start, rows in velocities:
+        vertex_velocity[start:start + len(rows)] = rows
 
     return SpacetimeMesh(
         vertices=cat(verts, (0, 4), np.float64),
@@ -323,6 +340,8 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
         materials=tuple(materials),
         bodies=tuple(scene.bodies),
         tri_st=cat(tri_st, (0, 3, 2), np.float64),
+        body_points=body_points,
+        vertex_velocity=vertex_velocity,
     )
 
 
