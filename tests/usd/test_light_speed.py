@@ -168,12 +168,13 @@ def test_validate_takes_the_light_speed(tmp_path, capsys):
     assert code == 2 and "--light-speed" in err
 
 
-def test_render_sequence_takes_the_light_speed(tmp_path):
-    """``render_sequence(path, light_speed=...)`` renders what ``load(path, light_speed=...)``
-    renders, and records it; a Scene already has one, so giving it again is refused."""
+def test_render_sequence_takes_the_stage_light_speed(tmp_path):
+    """``render_sequence(path, stage_light_speed=...)`` renders what ``load(path,
+    light_speed=...)`` renders, and records it; a Scene already has one, so giving it again
+    is refused (``light_speed`` stays the renderer's finite / infinite mode)."""
     path = stage(tmp_path)
     result = warp_st.render_sequence(path, [5.0], tmp_path / "q.####.exr", workers=0, progress=False,
-                                     light_speed="2u/tc", **SIZE)
+                                     stage_light_speed="2u/tc", **SIZE)
     written = warp_st.read_exr(result.files[0])
     assert written.metadata["lightSpeedUnitsPerTimeCode"] == "2.0"
     direct = warp_st.render(warp_st.load(path, light_speed="2u/tc"), frame=5.0, **SIZE)
@@ -181,5 +182,6 @@ def test_render_sequence_takes_the_light_speed(tmp_path):
     assert hit.sum() > 50 and np.array_equal(hit, written.object_id > 0)
     # the same renderer and rays: equal to float32 (the EXR stores the times as float32 offsets)
     np.testing.assert_allclose(written.event_time[hit], direct.event_time[hit], rtol=1e-6)
-    with pytest.raises(ValueError, match="light_speed"):
-        warp_st.render_sequence(warp_st.load(path), [5.0], tmp_path / "r.####.exr", workers=0, light_speed="2u/tc")
+    with pytest.raises(ValueError, match="stage_light_speed"):
+        warp_st.render_sequence(warp_st.load(path), [5.0], tmp_path / "r.####.exr", workers=0,
+                                stage_light_speed="2u/tc")

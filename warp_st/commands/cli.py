@@ -6,6 +6,7 @@
                    [--resume] [--quiet]
     warp-st inspect OUT.exr [--pixel X Y] [--channel NAME --png OUT.png]
     warp-st validate SCENE.usda
+    warp-st bench [NAME [ARGS...]]
 
 Exit status: 0 success; 2 bad input (one line ``warp-st: error: ...`` on stderr, no
 traceback, nothing written); 1 internal error (traceback with WARP_ST_DEBUG set);
@@ -44,14 +45,14 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     from warp_st import __version__
-    from warp_st.commands import inspect, render, validate
+    from warp_st.commands import bench, inspect, render, validate
 
     parser = _Parser(
         prog=PROG,
         description="Special-relativistic spacetime renderer: USD scenes -> EXR frames.",
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="{render,inspect,validate}")
+    sub = parser.add_subparsers(dest="command", metavar="{render,inspect,validate,bench}")
 
     r = sub.add_parser("render", help="render frames of a USD scene to EXR files", prog=f"{PROG} render")
     render.add_arguments(r)
@@ -60,6 +61,9 @@ def build_parser() -> argparse.ArgumentParser:
     inspect.add_arguments(i)
     v = sub.add_parser("validate", help="load a scene and report what it contains", prog=f"{PROG} validate")
     validate.add_arguments(v)
+    b = sub.add_parser("bench", help="run a benchmark script of the source checkout (none: list them)",
+                       prog=f"{PROG} bench")
+    bench.add_arguments(b)
     return parser
 
 
@@ -80,7 +84,7 @@ def _main(argv: list[str]) -> int:
         parser = build_parser()
         args = parser.parse_args(argv)
         if args.command is None:
-            raise UsageError("a command is required: render, inspect or validate (see --help)")
+            raise UsageError("a command is required: render, inspect, validate or bench (see --help)")
         if args.command == "render":
             from warp_st.commands import render
 
@@ -89,6 +93,10 @@ def _main(argv: list[str]) -> int:
             from warp_st.commands import inspect
 
             return inspect.run(args)
+        if args.command == "bench":
+            from warp_st.commands import bench
+
+            return bench.run(args)
         from warp_st.commands import validate
 
         return validate.run(args)

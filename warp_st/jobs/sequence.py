@@ -167,18 +167,19 @@ def _execute(tasks: list[_Task], scene, report: _Report, *, workers: int, schedu
 # --- public API ---------------------------------------------------------------------------
 
 
-def _source(scene_or_path, no_references: bool, light_speed):
+def _source(scene_or_path, no_references: bool, stage_light_speed):
     if isinstance(scene_or_path, (str, os.PathLike)):
-        return StageFile(scene_or_path, no_references=no_references, light_speed=light_speed), None
-    if light_speed is not None and not (isinstance(scene_or_path, StageFile) and scene_or_path.light_speed == light_speed):
-        raise ValueError("light_speed applies to a stage path or a Usd.Stage (a Scene or a StageFile "
-                         "already has its light speed)")
+        return StageFile(scene_or_path, no_references=no_references, light_speed=stage_light_speed), None
+    if stage_light_speed is not None and not (isinstance(scene_or_path, StageFile)
+                                              and scene_or_path.light_speed == stage_light_speed):
+        raise ValueError("stage_light_speed applies to a stage path or a Usd.Stage (a Scene or a "
+                         "StageFile already has its light speed)")
     if isinstance(scene_or_path, StageFile):
         return scene_or_path, None
     if isinstance(scene_or_path, Scene):
         return _InMemory(uuid.uuid4().hex), scene_or_path
     # a Usd.Stage: read it here, ship the Scene
-    return _InMemory(uuid.uuid4().hex), load_scene(scene_or_path, light_speed=light_speed)
+    return _InMemory(uuid.uuid4().hex), load_scene(scene_or_path, light_speed=stage_light_speed)
 
 
 def _workers(workers: int | None, scheduler, n_tasks: int) -> int:
@@ -195,7 +196,7 @@ def _options(render_options: dict) -> tuple:
 
 def render_sequence(scene_or_path, frames=None, output=None, *, workers: int | None = None, scheduler=None,
                     resume: bool = False, progress: bool = True, log=None, metadata: dict | None = None,
-                    no_references: bool = False, light_speed=None, **render_options) -> SequenceResult:
+                    no_references: bool = False, stage_light_speed=None, **render_options) -> SequenceResult:
     """Render ``frames`` of a stage to EXR files; returns a :class:`SequenceResult`.
 
     scene_or_path: a stage path (farm workers load it themselves), a :class:`StageFile`,
@@ -216,12 +217,13 @@ def render_sequence(scene_or_path, frames=None, output=None, *, workers: int | N
     progress: a tqdm bar on stderr when it is a terminal. log: see the module docstring.
     metadata: EXR header items (``spacetime:<key>``) for every frame (default: the
         stage path and its sha256 when a path is given).
-    light_speed: the stage's light speed when not its own (``load_scene``'s, e.g. ``"30m/s"``,
-        docs/spec.md §1.1), for a stage path or a ``Usd.Stage``.
+    stage_light_speed: the stage's speed of light when not its own (``load_scene``'s
+        ``light_speed``, e.g. ``"30m/s"``, docs/spec.md §1.1), for a stage path or a
+        ``Usd.Stage``; ``light_speed`` stays the renderer's finite / infinite mode.
     render_options: :class:`~warp_st.rendering.renderer.Renderer` keywords (width, camera, ...).
     """
     start = time.perf_counter()
-    source, scene = _source(scene_or_path, no_references, light_speed)
+    source, scene = _source(scene_or_path, no_references, stage_light_speed)
     if isinstance(output, (list, tuple)):
         jobs = list(output)
     else:
