@@ -16,8 +16,8 @@ from warp_st.accel.bvh import FlatBVH
 from warp_st.accel.bvh_wide import collapse
 from warp_st.accel.instances import BottomLevels
 from warp_st.kernels import Kernels
-from warp_st.rendering.device import ShadingTables, outward, set_nodes
-from warp_st.spacetime.rigid import MotionSegments, RigidShapes
+from warp_st.rendering.device import ShadingTables, outward, set_nodes, shared
+from warp_st.spacetime.rigid import MotionSegments, RigidShapes, shading_tables
 
 __all__ = ["RigidArrays", "make_rigid_geometry"]
 
@@ -27,15 +27,17 @@ _DEVICE = "cpu"
 class RigidArrays(ShadingTables):
     """Frame-independent device arrays of a rigid database: ``shapes`` with their
     ``bottom`` levels, ``segments`` under the ``top`` level (segments in input order;
-    ``top.order`` puts them in leaf order)."""
+    ``top.order`` puts them in leaf order). The shading tables share the memory of
+    ``shapes``' when their floats are the kernels' (``spacetime.rigid.shading_tables``)."""
 
     def __init__(self, k: Kernels, shapes: RigidShapes, bottom: BottomLevels, segments: MotionSegments,
                  top: FlatBVH):
-        super().__init__(k, shapes)
+        np_scalar = np.float32 if k.scalar == wp.float32 else np.float64
+        tables = shading_tables(shapes, np_scalar)
+        super().__init__(k, tables)
         n_tri = shapes.triangle_count
         self.bottom = bottom  # keeps the meshes (and so their ids) alive
-        self.prim_vidx = wp.array(shapes.tri_vidx[:, [0, 1, 2, 0]].astype(np.int32).reshape(-1, 4), dtype=wp.vec4i,
-                                  device=_DEVICE)
+        self.prim_vidx = shared(tables.tri_vidx, np.int32, wp.vec4i)
         self.prim_tri = wp.array(np.arange(n_tri, dtype=np.int32), dtype=wp.int32, device=_DEVICE)
         self.body_mesh = wp.array(bottom.body_mesh, dtype=wp.uint64, device=_DEVICE)
         self.body_tri_base = wp.array(shapes.body_tri_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
