@@ -35,10 +35,8 @@ class RigidArrays(ShadingTables):
         np_scalar = np.float32 if k.scalar == wp.float32 else np.float64
         tables = shading_tables(shapes, np_scalar)
         super().__init__(k, tables)
-        n_tri = shapes.triangle_count
         self.bottom = bottom  # keeps the meshes (and so their ids) alive
-        self.prim_vidx = shared(tables.tri_vidx, np.int32, wp.vec4i)
-        self.prim_tri = wp.array(np.arange(n_tri, dtype=np.int32), dtype=wp.int32, device=_DEVICE)
+        self.tri_vidx = shared(tables.tri_vidx, np.int32, wp.vec3i)
         self.body_mesh = wp.array(bottom.body_mesh, dtype=wp.uint64, device=_DEVICE)
         self.body_tri_base = wp.array(shapes.body_tri_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.body_rest = wp.array(shapes.rest_from_lab, dtype=wp.mat33d, device=_DEVICE)
@@ -68,7 +66,7 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     g = k.Geometry()
     ns = static.np_scalar
     order = static.order
-    for name in ("prim_vidx", "prim_tri", "tri_body", "body_object", "body_mesh", "body_tri_base", "body_rest",
+    for name in ("tri_vidx", "tri_body", "body_object", "body_mesh", "body_tri_base", "body_rest",
                  "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi", "seg_body", "body_quadric",
                  "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map", "body_map_shift"):
         setattr(g, name, getattr(static, name))

@@ -58,8 +58,7 @@ class RigidShapes(TriangleTables):
         mesh's rounding); body_start_lo, body_start_hi: the box of every body held in
         that frame (queries start where a ray enters it).
     rest_from_lab: A^-1 per body, (B, 3, 3) (identity for decoupled bodies).
-    tri_vidx: global vertex indices of each triangle and its first again (T, 4) int32:
-        the four vertex slots the shading weighs (``kernels/shade.py``), uploaded as is.
+    tri_vidx: global vertex indices of each triangle (T, 3) int32, uploaded as is.
     body_quadric: the analytic shape a body is traced as (``rigid_shapes``'s
         ``exact_quadrics``; ``kernels.quadrics`` codes), else 0, (B,); quadric_inv /
         quadric_centre / quadric_param: the shape is the canonical solid of that code in
@@ -269,7 +268,7 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
             lab_centre = origin + a @ (t - origin)
             box_lo[i], box_hi[i] = lab_centre - lab_half, lab_centre + lab_half
         tables["normals"].append(bt.normals.astype(dtype))
-        tables["vidx"].append((bt.triangles[:, [0, 1, 2, 0]] + n_vert).astype(np.int32))
+        tables["vidx"].append((bt.triangles + n_vert).astype(np.int32))
         tables["tri_normal"].append(bt.tri_normal.astype(dtype))
         tables["tri_smooth"].append(bt.tri_smooth)
         tables["tri_size"].append(bt.tri_size.astype(dtype))
@@ -298,7 +297,7 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
         body_start_hi=start_hi, rest_from_lab=rest_from_lab, body_quadric=quadric, quadric_inv=quadric_inv,
         quadric_centre=quadric_centre, quadric_param=quadric_param, body_mapped=mapped, body_map=body_map,
         body_map_shift=map_shift, vertex_normals=cat("normals", (0, 3), dtype),
-        tri_vidx=cat("vidx", (0, 4), np.int32), tri_normal=cat("tri_normal", (0, 3), dtype),
+        tri_vidx=cat("vidx", (0, 3), np.int32), tri_normal=cat("tri_normal", (0, 3), dtype),
         tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), dtype),
         tri_body=cat("tri_body", (0,), np.int32), tri_material=cat("tri_material", (0,), np.int32),
         materials=tuple(materials), bodies=bodies,
