@@ -2,11 +2,14 @@
 
 The extrusion's Geometry (``trace.py``) holds both per primitive: its triangle
 (``prim_tri``) and four vertex slots (``prim_vidx``) that the hit's barycentrics weigh.
-The rigid one (``trace_rigid.py``) returns global triangles as its primitives and holds
-each triangle's three vertices (``tri_vidx``): its primitive is its triangle, and the
+The rigid one (``trace_rigid.py``) returns global triangles as its primitives, so its
+primitive is its triangle, and holds vertex indices per shape, not per body
+(``spacetime.rigid.RigidShapes.shape_vidx``): triangle k of a body is its shape's
+triangle k, its vertices that triangle's plus the body's first global vertex. The
 fourth slot is the first vertex again, weighed 0 (a mesh hit's barycentrics are
 (u, v, 1 - u - v, 0)), as the prism's is. So the shading reads one rule either way and
-the rigid database keeps no identity table and no fourth index (issue 17).
+the rigid database keeps no identity table, no fourth index and no vertex indices per
+body (issue 17).
 """
 import warp as wp
 
@@ -37,8 +40,10 @@ def make_prim_lookup(Geometry):
 
         @wp.func
         def prim_vertices(g: Geometry, prim: int) -> wp.vec4i:
-            v = g.tri_vidx[prim]
-            return wp.vec4i(v[0], v[1], v[2], v[0])
+            b = g.tri_body[prim]
+            v = g.shape_vidx[g.body_shape_tri[b] + prim - g.body_tri_base[b]]
+            base = g.body_vert_base[b]
+            return wp.vec4i(v[0] + base, v[1] + base, v[2] + base, v[0] + base)
 
     _MADE[Geometry] = (prim_triangle, prim_vertices)
     return _MADE[Geometry]

@@ -70,9 +70,12 @@ def make_trace_rigid(scalar):
 
     @wp.struct
     class Geometry:
-        # Shading tables (global triangles, each a primitive: ``prim_lookup``):
-        # a triangle's three global vertices.
-        tri_vidx: wp.array(dtype=wp.vec3i)
+        # Shading tables (global triangles, each a primitive: ``prim_lookup``): each
+        # shape's triangles (vertex indices in the shape), where each body's shape starts
+        # there and the body's first global vertex.
+        shape_vidx: wp.array(dtype=wp.vec3i)
+        body_shape_tri: wp.array(dtype=wp.int32)
+        body_vert_base: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
         body_object: wp.array(dtype=wp.int32)  # the object of each body (an animated body's pieces share one)
         # Bodies: bottom level (wp.Mesh id of the body's shape), first global triangle,

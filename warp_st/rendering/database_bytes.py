@@ -43,7 +43,7 @@ def total_bytes(tables: list[Table]) -> int:
 class _Counter:
     def __init__(self):
         self.tables: list[Table] = []
-        self.seen: set = set()
+        self.spans: list = []  # the memory counted so far: disjoint (start, end)
 
     def add(self, name: str, value) -> None:
         """Count ``value`` (an array, or a tuple / list / struct of them) under ``name``."""
@@ -65,9 +65,17 @@ class _Counter:
                 self.add(f"{name}.{field_name}", getattr(value, field_name))
 
     def _buffer(self, name: str, ptr, dtype: str, rows: int, nbytes: int) -> None:
-        if nbytes == 0 or ptr in self.seen:
+        """Count the bytes of [ptr, ptr + nbytes) no buffer counted before covers (a view of
+        one, or an array over its memory, adds nothing)."""
+        if nbytes == 0 or not ptr:
             return
-        self.seen.add(ptr)
+        start, end = int(ptr), int(ptr) + int(nbytes)
+        overlapping = [(a, b) for a, b in self.spans if a < end and start < b]  # the spans are disjoint
+        nbytes -= sum(min(end, b) - max(start, a) for a, b in overlapping)
+        self.spans = [sp for sp in self.spans if sp not in overlapping] + [
+            (min([start] + [a for a, _ in overlapping]), max([end] + [b for _, b in overlapping]))]
+        if nbytes <= 0:
+            return
         for i, t in enumerate(self.tables):  # several buffers under one name (a tuple): one row
             if t.name == name and t.dtype == dtype:
                 self.tables[i] = Table(name, dtype, t.rows + rows, t.nbytes + nbytes)

@@ -36,7 +36,9 @@ class RigidArrays(ShadingTables):
         tables = shading_tables(shapes, np_scalar)
         super().__init__(k, tables)
         self.bottom = bottom  # keeps the meshes (and so their ids) alive
-        self.tri_vidx = shared(tables.tri_vidx, np.int32, wp.vec3i)
+        self.shape_vidx = shared(shapes.shape_vidx, np.int32, wp.vec3i)  # the bottom levels' indices too
+        self.body_shape_tri = wp.array(shapes.body_shape_tri, dtype=wp.int32, device=_DEVICE)
+        self.body_vert_base = wp.array(shapes.body_vert_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.body_mesh = wp.array(bottom.body_mesh, dtype=wp.uint64, device=_DEVICE)
         self.body_tri_base = wp.array(shapes.body_tri_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.body_rest = wp.array(shapes.rest_from_lab, dtype=wp.mat33d, device=_DEVICE)
@@ -66,7 +68,7 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     g = k.Geometry()
     ns = static.np_scalar
     order = static.order
-    for name in ("tri_vidx", "tri_body", "body_object", "body_mesh", "body_tri_base", "body_rest",
+    for name in ("shape_vidx", "body_shape_tri", "body_vert_base", "tri_body", "body_object", "body_mesh", "body_tri_base", "body_rest",
                  "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi", "seg_body", "body_quadric",
                  "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map", "body_map_shift"):
         setattr(g, name, getattr(static, name))

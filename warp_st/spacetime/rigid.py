@@ -45,7 +45,8 @@ class RigidShapes(TriangleTables):
 
     shape_rest / shape_triangles: per shape, rest-frame points (P_s, 3) float32 in the
         coordinates of the shape's frame (as the bottom level takes them: computed in
-        float64, then rounded), and triangles (T_s, 3) int32; bodies whose
+        float64, then rounded), and triangles (T_s, 3) int32 (views of ``shape_vidx``,
+        all shapes' triangles one after another); bodies whose
         points relative to their pivots and triangles are identical share one shape (one
         bottom level; see ``rigid_shapes`` for the frames).
     body_shape: shape index of each body, (B,), -1 for a body without triangles.
@@ -58,7 +59,10 @@ class RigidShapes(TriangleTables):
         mesh's rounding); body_start_lo, body_start_hi: the box of every body held in
         that frame (queries start where a ray enters it).
     rest_from_lab: A^-1 per body, (B, 3, 3) (identity for decoupled bodies).
-    tri_vidx: global vertex indices of each triangle (T, 3) int32, uploaded as is.
+    body_shape_tri: the row of ``shape_vidx`` where the body's shape starts, (B,) int32:
+        a body's triangle k is its shape's, so its global vertex indices are
+        shape_vidx[body_shape_tri + k] + body_vert_base (one table of vertex indices per
+        shape, not per body: ``kernels/prim_lookup.py``).
     body_quadric: the analytic shape a body is traced as (``rigid_shapes``'s
         ``exact_quadrics``; ``kernels.quadrics`` codes), else 0, (B,); quadric_inv /
         quadric_centre / quadric_param: the shape is the canonical solid of that code in
@@ -85,7 +89,8 @@ class RigidShapes(TriangleTables):
     body_start_lo: np.ndarray
     body_start_hi: np.ndarray
     rest_from_lab: np.ndarray
-    tri_vidx: np.ndarray
+    shape_vidx: np.ndarray
+    body_shape_tri: np.ndarray
     body_quadric: np.ndarray
     quadric_inv: np.ndarray
     quadric_centre: np.ndarray
@@ -218,7 +223,7 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
     mapped = np.zeros(n_bodies, np.int32)
     body_map = np.tile(np.eye(3), (n_bodies, 1, 1))
     map_shift = np.zeros((n_bodies, 3))
-    tables = {k: [] for k in ("normals", "vidx", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material",
+    tables = {k: [] for k in ("normals", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material",
                               "tri_st")}
     n_tri = n_vert = 0
     for i, (body, bt, key) in enumerate(zip(bodies, found, keys)):
@@ -268,7 +273,6 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
             lab_centre = origin + a @ (t - origin)
             box_lo[i], box_hi[i] = lab_centre - lab_half, lab_centre + lab_half
         tables["normals"].append(bt.normals.astype(dtype))
-        tables["vidx"].append((bt.triangles + n_vert).astype(np.int32))
         tables["tri_normal"].append(bt.tri_normal.astype(dtype))
         tables["tri_smooth"].append(bt.tri_smooth)
         tables["tri_size"].append(bt.tri_size.astype(dtype))
@@ -285,19 +289,24 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
         start_hi[members] = rest_hi[members].max(axis=0)
 
     textured = any(t is not None for m in materials for t in m.textures)
+    shape_vidx = np.concatenate(shape_tris) if shape_tris else np.zeros((0, 3), np.int32)
+    shape_first = np.cumsum([0] + [len(t) for t in shape_tris])
+    body_shape_tri = np.where(body_shape >= 0, shape_first[np.maximum(body_shape, 0)], 0).astype(np.int32)
 
     def cat(name, shape, dtype):
         parts = tables[name]
         return np.ascontiguousarray(np.concatenate(parts), dtype=dtype) if parts else np.zeros(shape, dtype)
 
     return RigidShapes(
-        shape_rest=tuple(shape_rest), shape_triangles=tuple(shape_tris), body_shape=body_shape,
+        shape_rest=tuple(shape_rest), shape_triangles=tuple(shape_vidx[a:b] for a, b in zip(shape_first[:-1],
+                                                                                             shape_first[1:])),
+        shape_vidx=shape_vidx, body_shape_tri=body_shape_tri, body_shape=body_shape,
         body_tri_base=tri_base, body_vert_base=vert_base, body_box_lo=box_lo, body_box_hi=box_hi,
         body_frame=frame[frame_of], body_rest_lo=rest_lo, body_rest_hi=rest_hi, body_start_lo=start_lo,
         body_start_hi=start_hi, rest_from_lab=rest_from_lab, body_quadric=quadric, quadric_inv=quadric_inv,
         quadric_centre=quadric_centre, quadric_param=quadric_param, body_mapped=mapped, body_map=body_map,
         body_map_shift=map_shift, vertex_normals=cat("normals", (0, 3), dtype),
-        tri_vidx=cat("vidx", (0, 3), np.int32), tri_normal=cat("tri_normal", (0, 3), dtype),
+        tri_normal=cat("tri_normal", (0, 3), dtype),
         tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), dtype),
         tri_body=cat("tri_body", (0,), np.int32), tri_material=cat("tri_material", (0,), np.int32),
         materials=tuple(materials), bodies=bodies,
