@@ -7,7 +7,9 @@ one shape, instanced), or with ``--distinct`` the same spheres each of its own r
 (16 shapes: no instancing). The count is ``rendering.database_bytes.rigid_tables`` after
 one render (every host and device table, the bottom levels' wp.Mesh with Warp's native
 memory); as a check of it, the process's resident memory growth over the renderer's
-construction (kernels compiled and loaded before, by a small scene's render).
+construction (kernels compiled and loaded before, by a small scene's render; glibc's
+MALLOC_MMAP_THRESHOLD_=65536, set here when absent, returns freed temporaries to the
+system, so the RSS is what is held, not the build's peak).
 
     python3 examples/benchmarks/bench_database_bytes.py
     python3 examples/benchmarks/bench_database_bytes.py --distinct --segments 128
@@ -56,6 +58,11 @@ def main(argv=None) -> int:
     p.add_argument("--distinct", action="store_true", help="16 shapes instead of one instanced")
     p.add_argument("--size", type=int, default=64, help="image width and height (default 64)")
     args = p.parse_args(argv)
+    if os.environ.get("MALLOC_MMAP_THRESHOLD_") is None:
+        # glibc otherwise keeps freed large temporaries in the heap: the RSS would count
+        # the build's peak, not what is held. With a fixed threshold they go back.
+        os.environ["MALLOC_MMAP_THRESHOLD_"] = "65536"
+        os.execv(sys.executable, [sys.executable, *sys.argv])
     from bench_two_level import cpu_model
 
     from warp_st.rendering.database_bytes import rigid_tables, total_bytes
