@@ -68,9 +68,10 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     g = k.Geometry()
     ns = static.np_scalar
     order = static.order
-    for name in ("shape_vidx", "body_shape_tri", "body_vert_base", "tri_body", "body_object", "body_mesh", "body_tri_base", "body_rest",
-                 "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi", "seg_body", "body_quadric",
-                 "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map", "body_map_shift"):
+    for name in ("shape_vidx", "body_shape_tri", "body_vert_base", "tri_body", "body_object", "body_mesh",
+                 "body_tri_base", "body_rest", "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi",
+                 "seg_body", "body_quadric", "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map",
+                 "body_map_shift"):
         setattr(g, name, getattr(static, name))
     g.body_velocity = static.body_velocity64
     vec2 = wp.types.vector(2, k.scalar)

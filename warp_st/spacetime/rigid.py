@@ -198,8 +198,9 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False, dtype=np.float32) -
 def _held(bt, dtype):
     """``bt`` (a ``BodyTriangles`` or None) as held until its rows are taken: triangles
     int32, the shading floats already in ``dtype``, texture coordinates that are all
-    zeros (untextured surfaces) left out (None): about 80 bytes per triangle less at the
-    build's peak, every body's triangles being held at once."""
+    zeros (untextured surfaces) left out (None): every body's triangles are held at once,
+    and this holds ~80 bytes per triangle less (the host's peak over ``rigid_shapes`` fell
+    from 175 to 147 bytes per triangle, docs/design/database-size.md)."""
     if bt is None:
         return None
     return dataclasses.replace(bt, triangles=bt.triangles.astype(np.int32), normals=bt.normals.astype(dtype),
@@ -240,7 +241,7 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
                               "tri_st")}
     n_tri = n_vert = 0
     for i, (body, bt, key) in enumerate(zip(bodies, found, keys)):
-        found[i] = None  # each body's float64 triangles freed once its rows are taken
+        found[i] = None  # each body's triangles freed once its rows are taken
         tri_base[i], vert_base[i] = n_tri, n_vert
         rest_from_lab[i] = np.linalg.inv(contraction_matrix(body.velocity, body.decoupled))
         if bt is None:
