@@ -40,8 +40,9 @@ class BottomLevels:
         t0 = time.perf_counter()
         self.meshes = []
         for rest, tris in zip(shapes.shape_rest, shapes.shape_triangles):
-            self.meshes.append(wp.Mesh(points=wp.array(rest.astype(np.float32), dtype=wp.vec3, device="cpu"),
-                                       indices=wp.array(tris.reshape(-1), dtype=wp.int32, device="cpu")))
+            self.meshes.append(wp.Mesh(points=wp.array(np.asarray(rest, np.float32), dtype=wp.vec3, device="cpu",
+                                                       copy=False),  # the shape's own float32 points
+                                       indices=wp.array(tris.reshape(-1), dtype=wp.int32, device="cpu", copy=False)))
         ids = np.array([m.id for m in self.meshes] + [0], dtype=np.uint64)
         self.body_mesh = ids[shapes.body_shape]  # -1 (no shape) picks the trailing 0
         self.build_seconds = time.perf_counter() - t0

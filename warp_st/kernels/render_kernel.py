@@ -9,6 +9,7 @@ import functools
 import warp as wp
 
 from warp_st.kernels.layout import ANALYTIC_TEST, PRIMITIVES
+from warp_st.kernels.prim_lookup import make_prim_lookup
 from warp_st.kernels.probe import make_probe
 from warp_st.kernels.shade import make_shade
 from warp_st.kernels.sky import make_sky
@@ -65,6 +66,7 @@ def _make_render(scalar, k, trace, Geometry):
     doppler_transform = make_spectrum(scalar, vec3)
     _textures, surface_inputs = make_textures(scalar)
     _sky, sky_radiance, sky_irradiance = make_sky(scalar)
+    prim_triangle, _vertices = make_prim_lookup(Geometry)
 
     @wp.struct
     class Camera:
@@ -216,7 +218,7 @@ def _make_render(scalar, k, trace, Geometry):
                 first_prim = prim
                 first_s = s
                 first_lam = lam
-            tri = geo.prim_tri[prim]
+            tri = prim_triangle(geo, prim)
             mat = shd.tri_material[tri]
             diffuse, emissive, metal = surface_inputs(shd.tex, prim, tri, lam, mat, shd.mat_diffuse[mat],
                                                       shd.mat_emissive[mat], shd.mat_metallic[mat])
@@ -324,7 +326,7 @@ def _make_render(scalar, k, trace, Geometry):
             if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
                 hit_id = int(0)
                 if p_k >= 0:
-                    hit_id = geo.prim_tri[p_k] + 1
+                    hit_id = prim_triangle(geo, p_k) + 1
                 film.sample_id[pixel * cam.samples + wp.max(k - 1, 0)] = hit_id
             if k == 0:
                 color = c
@@ -371,7 +373,7 @@ def _make_render(scalar, k, trace, Geometry):
         film.source_time[pixel] = src_t
         film.bounces[pixel] = src_b
 
-        body = shd.tri_body[geo.prim_tri[prim]]
+        body = shd.tri_body[prim_triangle(geo, prim)]
         bo = shd.body_origin[body]
         v = shd.body_velocity[body]
         dec = shd.body_decoupled[body]

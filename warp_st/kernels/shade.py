@@ -10,6 +10,7 @@ import warp as wp
 from warp_st.kernels.layout import ANALYTIC_TEST
 from warp_st.kernels.light_doppler import make_light_doppler
 from warp_st.kernels.light_track import make_light_track
+from warp_st.kernels.prim_lookup import make_prim_lookup
 from warp_st.kernels.sky import make_sky
 from warp_st.kernels.spectrum import make_spectrum
 from warp_st.kernels.texture import make_textures
@@ -32,6 +33,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
     Track, light_linear_at, emission_event, emission_velocity = make_light_track(scalar)
     incident_doppler = make_light_doppler(scalar)
     doppler_transform = make_spectrum(scalar, vec3)
+    prim_triangle, prim_vertices = make_prim_lookup(Geometry)
 
     @wp.struct
     class Shading:
@@ -121,12 +123,12 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         Relative to a surface point moving with v (``point_velocity``) the photon (spatial
         direction -n) moves as -(n + v), which picks the side of a two-sided surface.
         """
-        tri = geo.prim_tri[prim]
+        tri = prim_triangle(geo, prim)
         normal = shd.tri_normal[tri]
         if lam[3] > scalar(ANALYTIC_TEST):
             normal = vec3(lam[0], lam[1], lam[2])
         elif shd.tri_smooth[tri] != 0:
-            idx = geo.prim_vidx[prim]
+            idx = prim_vertices(geo, prim)
             sm = (
                 lam[0] * shd.vert_normal[idx[0]]
                 + lam[1] * shd.vert_normal[idx[1]]
@@ -218,7 +220,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         the lit point's velocity (``point_velocity``), for the light's Doppler factor.
         Without lights the surface shows its unlit albedo (docs/spec.md §3).
         """
-        tri = geo.prim_tri[prim]
+        tri = prim_triangle(geo, prim)
         body = shd.tri_body[tri]
         color = emissive
         if shd.light_count == 0:

@@ -26,8 +26,8 @@ body a shadow ray runs the closest-hit query (which sees triangles), every other
 the any-hit one.
 
 The hit's barycentrics (u, v, 1 - u - v) weigh the triangle's vertices in the mesh's
-index order; the primitive index returned is the global triangle (``prim_tri`` is the
-identity), so the shading reads the same tables as on the prism path.
+index order; the primitive index returned is the global triangle (its own triangle:
+``prim_lookup``), so the shading reads the same tables as on the prism path.
 
 A body flagged ``body_quadric`` is an exact analytic shape (``kernels/quadrics.py``: an
 ellipsoid, cylinder, cone or capsule) in canonical coordinates q = Q (r - c) of its frame's
@@ -70,10 +70,12 @@ def make_trace_rigid(scalar):
 
     @wp.struct
     class Geometry:
-        # Shading tables (global triangles; prim_tri is the identity, prim_vidx a
-        # triangle's three global vertices and the first again).
-        prim_vidx: wp.array(dtype=wp.vec4i)
-        prim_tri: wp.array(dtype=wp.int32)
+        # Shading tables (global triangles, each a primitive: ``prim_lookup``): each
+        # shape's triangles (vertex indices in the shape), where each body's shape starts
+        # there and the body's first global vertex.
+        shape_vidx: wp.array(dtype=wp.vec3i)
+        body_shape_tri: wp.array(dtype=wp.int32)
+        body_vert_base: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
         body_object: wp.array(dtype=wp.int32)  # the object of each body (an animated body's pieces share one)
         # Bodies: bottom level (wp.Mesh id of the body's shape), first global triangle,

@@ -52,14 +52,18 @@ BYTES_PER_VERTEX = 4 * 8 + 4 * 4 + 3 * 8 + 3 * 4
 #: The film (rgba + 5 scalars + 3 int32 on the device) and the Image (rgba f32, two f64 times, 5 x 4 bytes).
 BYTES_PER_PIXEL = (4 * 4 + 5 * 4 + 3 * 4) + (4 * 4 + 2 * 8 + 5 * 4)
 #: Per triangle of the rigid (two-level) database, which neither speed, lifetime nor
-#: frame span changes: the host tables (vertex indices int32 x 3, normal float64 x 3,
-#: size float64, smooth / body / material int32, the shape's indices int32 x 3), the
-#: device tables (vertex indices int32 x 4, triangle int32, normal float32 x 3, size,
-#: smooth, body, material) and the bottom level (wp.Mesh indices int32 x 3, at most two
-#: 32-byte BVH nodes and a permutation entry).
-BYTES_PER_RIGID_TRIANGLE = (12 + 24 + 8 + 12 + 12) + (16 + 4 + 12 + 16) + (12 + 64 + 4)
-#: Per vertex: rest point and normal (float64, host), mesh point and normal (float32, device).
-BYTES_PER_RIGID_VERTEX = 24 + 24 + 12 + 12
+#: frame span changes, no body sharing its shape (rendering.database_bytes counts the
+#: real one): the shading tables, one copy the host and the device share (normal
+#: float32 x 3, size float32, smooth / body / material int32), the shape's vertex
+#: indices (int32 x 3, the wp.Mesh's too), the wp.Mesh's native memory
+#: (database_bytes.WP_MESH_NATIVE_BYTES_PER_TRIANGLE: 100) and 16 for the build's
+#: transients (each body's triangles, held until taken). Measured on 1.04M triangles of 16
+#: shapes, 0.5 vertices per triangle: peak RSS growth 107 B per triangle against this
+#: estimate's 168 (Warp leaves most of its node allocation untouched;
+#: docs/design/database-size.md).
+BYTES_PER_RIGID_TRIANGLE = (12 + 4 + 12) + 12 + 100 + 16
+#: Per vertex: shading normal (float32 x 3) and the shape's rest point (float32 x 3, the wp.Mesh's).
+BYTES_PER_RIGID_VERTEX = 12 + 12
 
 
 def estimate_bytes(tetrahedra: int, vertices: int, pixels: int = 0) -> int:

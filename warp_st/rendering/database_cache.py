@@ -35,8 +35,9 @@ Memory: per scene at most MAX_DATABASES databases, MAX_TESSELLATIONS re-tessella
 sets and rigid shape sets, and MAX_WINDOWS window lists (a few floats per body each),
 least recently used dropped first. A database costs about what one render of it holds
 (``budget``: an extrusion ~465 bytes per tetrahedron and ~84 per vertex on the host and
-the device; a rigid database ~196 bytes per triangle and 72 per vertex, independent of
-speeds, lifetimes and frames) plus its last MAX_GEOMETRIES recentred geometries (an
+the device; a rigid database at most ~156 bytes per triangle and 24 per vertex, ~42 per
+triangle when 16 bodies share a shape, independent of speeds, lifetimes and frames:
+``database_bytes``) plus its last MAX_GEOMETRIES recentred geometries (an
 extrusion's: float32 copies of every vertex, primitive event and node box; a rigid
 one's: a few vectors per motion segment).
 docs/design/database-cache.md says the same for users.

@@ -22,7 +22,7 @@ from warp_st.rendering.device_lights import light_track
 from warp_st.rendering.device_textures import sky_struct, tet_corners, texture_tables
 from warp_st.spacetime.extrude import SpacetimeMesh
 
-__all__ = ["ShadingTables", "StaticArrays", "make_geometry", "set_nodes", "outward", "make_shading"]
+__all__ = ["ShadingTables", "StaticArrays", "shared", "make_geometry", "set_nodes", "outward", "make_shading"]
 
 _DEVICE = "cpu"
 #: Light.kind -> the shading kernel's light_kind (kernels/shade.py).
@@ -31,17 +31,19 @@ _LIGHT_KIND = {"sphere": 0, "distant": 1, "rect": 2, "disk": 2}
 
 class ShadingTables:
     """Frame-independent shading arrays: vertex normals, per-triangle tables, materials,
-    bodies. ``tables`` is a ``SpacetimeMesh`` or a ``RigidShapes`` (the same fields)."""
+    bodies. ``tables`` is a ``SpacetimeMesh`` or a ``RigidShapes`` (the same fields).
+    A table already in the kernels' type is shared, not copied (``shared``: the device
+    is the CPU): the device array is the host table's memory."""
 
     def __init__(self, k: Kernels, tables):
         np_scalar = np.float32 if k.scalar == wp.float32 else np.float64
         self.np_scalar = np_scalar
-        self.vert_normal = wp.array(tables.vertex_normals.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
-        self.tri_normal = wp.array(tables.tri_normal.astype(np_scalar), dtype=k.vec3, device=_DEVICE)
-        self.tri_smooth = wp.array(tables.tri_smooth, dtype=wp.int32, device=_DEVICE)
-        self.tri_size = wp.array(tables.tri_size.astype(np_scalar), dtype=k.scalar, device=_DEVICE)
-        self.tri_body = wp.array(tables.tri_body, dtype=wp.int32, device=_DEVICE)
-        self.tri_material = wp.array(tables.tri_material, dtype=wp.int32, device=_DEVICE)
+        self.vert_normal = shared(tables.vertex_normals, np_scalar, k.vec3)
+        self.tri_normal = shared(tables.tri_normal, np_scalar, k.vec3)
+        self.tri_smooth = shared(tables.tri_smooth, np.int32, wp.int32)
+        self.tri_size = shared(tables.tri_size, np_scalar, k.scalar)
+        self.tri_body = shared(tables.tri_body, np.int32, wp.int32)
+        self.tri_material = shared(tables.tri_material, np.int32, wp.int32)
         mats = tables.materials or ()
         diffuse = np.array([m.diffuse for m in mats], dtype=np_scalar).reshape(-1, 3)
         emissive = np.array([m.emissive for m in mats], dtype=np_scalar).reshape(-1, 3)
@@ -96,6 +98,13 @@ class StaticArrays(ShadingTables):
         # The kernel traces the 4-wide form of the BVH (bvh_wide.py).
         self.wide = collapse(bvh)
         self.node_link = wp.array(self.wide.link, dtype=wp.vec4i, device=_DEVICE)
+
+
+def shared(table: np.ndarray, np_dtype, dtype) -> wp.array:
+    """``table`` on the device as ``dtype``: over the table's own memory when it is
+    contiguous and of ``np_dtype`` already (the arrays are read-only there), else over a
+    converted copy."""
+    return wp.array(np.ascontiguousarray(table, dtype=np_dtype), dtype=dtype, device=_DEVICE, copy=False)
 
 
 def outward(values64: np.ndarray, np_scalar, direction: float) -> np.ndarray:

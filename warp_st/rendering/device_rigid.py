@@ -16,8 +16,8 @@ from warp_st.accel.bvh import FlatBVH
 from warp_st.accel.bvh_wide import collapse
 from warp_st.accel.instances import BottomLevels
 from warp_st.kernels import Kernels
-from warp_st.rendering.device import ShadingTables, outward, set_nodes
-from warp_st.spacetime.rigid import MotionSegments, RigidShapes
+from warp_st.rendering.device import ShadingTables, outward, set_nodes, shared
+from warp_st.spacetime.rigid import MotionSegments, RigidShapes, shading_tables
 
 __all__ = ["RigidArrays", "make_rigid_geometry"]
 
@@ -27,16 +27,18 @@ _DEVICE = "cpu"
 class RigidArrays(ShadingTables):
     """Frame-independent device arrays of a rigid database: ``shapes`` with their
     ``bottom`` levels, ``segments`` under the ``top`` level (segments in input order;
-    ``top.order`` puts them in leaf order)."""
+    ``top.order`` puts them in leaf order). The shading tables share the memory of
+    ``shapes``' when their floats are the kernels' (``spacetime.rigid.shading_tables``)."""
 
     def __init__(self, k: Kernels, shapes: RigidShapes, bottom: BottomLevels, segments: MotionSegments,
                  top: FlatBVH):
-        super().__init__(k, shapes)
-        n_tri = shapes.triangle_count
+        np_scalar = np.float32 if k.scalar == wp.float32 else np.float64
+        tables = shading_tables(shapes, np_scalar)
+        super().__init__(k, tables)
         self.bottom = bottom  # keeps the meshes (and so their ids) alive
-        self.prim_vidx = wp.array(shapes.tri_vidx[:, [0, 1, 2, 0]].astype(np.int32).reshape(-1, 4), dtype=wp.vec4i,
-                                  device=_DEVICE)
-        self.prim_tri = wp.array(np.arange(n_tri, dtype=np.int32), dtype=wp.int32, device=_DEVICE)
+        self.shape_vidx = shared(shapes.shape_vidx, np.int32, wp.vec3i)  # the bottom levels' indices too
+        self.body_shape_tri = wp.array(shapes.body_shape_tri, dtype=wp.int32, device=_DEVICE)
+        self.body_vert_base = wp.array(shapes.body_vert_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.body_mesh = wp.array(bottom.body_mesh, dtype=wp.uint64, device=_DEVICE)
         self.body_tri_base = wp.array(shapes.body_tri_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.body_rest = wp.array(shapes.rest_from_lab, dtype=wp.mat33d, device=_DEVICE)
@@ -66,9 +68,10 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     g = k.Geometry()
     ns = static.np_scalar
     order = static.order
-    for name in ("prim_vidx", "prim_tri", "tri_body", "body_object", "body_mesh", "body_tri_base", "body_rest",
-                 "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi", "seg_body", "body_quadric",
-                 "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map", "body_map_shift"):
+    for name in ("shape_vidx", "body_shape_tri", "body_vert_base", "tri_body", "body_object", "body_mesh",
+                 "body_tri_base", "body_rest", "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi",
+                 "seg_body", "body_quadric", "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map",
+                 "body_map_shift"):
         setattr(g, name, getattr(static, name))
     g.body_velocity = static.body_velocity64
     vec2 = wp.types.vector(2, k.scalar)

@@ -64,7 +64,7 @@ def texture_tables(k: Kernels, tables, tets: np.ndarray | None = None):
     textured = bool(info)
     t = Textures()
     st = np.asarray(tables.tri_st, dtype=ns).reshape(-1, 2) if textured else np.zeros((0, 2), ns)
-    t.tri_st = wp.array(st, dtype=vec2, device=_DEVICE)
+    t.tri_st = wp.array(st, dtype=vec2, device=_DEVICE, copy=False)  # the host table's memory when of ns
     corners = tet_corners(tets) if (textured and tets is not None) else np.zeros(0, np.int32)
     t.prim_corner = wp.array(corners, dtype=wp.int32, device=_DEVICE)
     t.mat_tex = wp.array(mat_tex, dtype=wp.vec3i, device=_DEVICE)

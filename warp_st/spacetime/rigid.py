@@ -19,6 +19,7 @@ into segments whose 4D boxes the top level bounds (frame-dependent, cheap).
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,7 +30,7 @@ from warp_st.kernels.quadrics import QUADRIC_CAPSULE, QUADRIC_CONE, QUADRIC_CYLI
 from warp_st.spacetime.extrude import TriangleTables, _body_size, body_triangles
 from warp_st.spacetime.visibility import intervals
 
-__all__ = ["RigidShapes", "rigid_shapes", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
+__all__ = ["RigidShapes", "rigid_shapes", "shading_tables", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -37,8 +38,16 @@ class RigidShapes(TriangleTables):
     """Every body's triangles at rest and the shading tables (``TriangleTables``, one
     row per global vertex and triangle), lab frame where not said.
 
-    shape_rest / shape_triangles: per shape, rest-frame points (P_s, 3) float64 in the
-        coordinates of the shape's frame, and triangles (T_s, 3) int32; bodies whose
+    The shading tables' floats (``vertex_normals``, ``tri_normal``, ``tri_size``,
+    ``tri_st``) are computed in float64 and stored in the float type of the kernels they
+    are made for (``rigid_shapes``'s ``dtype``, float32 by default), so the upload
+    (``rendering.device.ShadingTables``) shares their memory instead of copying them;
+    ``shading_tables`` makes them in another type when a render needs it.
+
+    shape_rest / shape_triangles: per shape, rest-frame points (P_s, 3) float32 in the
+        coordinates of the shape's frame (as the bottom level takes them: computed in
+        float64, then rounded), and triangles (T_s, 3) int32 (views of ``shape_vidx``,
+        all shapes' triangles one after another); bodies whose
         points relative to their pivots and triangles are identical share one shape (one
         bottom level; see ``rigid_shapes`` for the frames).
     body_shape: shape index of each body, (B,), -1 for a body without triangles.
@@ -51,7 +60,10 @@ class RigidShapes(TriangleTables):
         mesh's rounding); body_start_lo, body_start_hi: the box of every body held in
         that frame (queries start where a ray enters it).
     rest_from_lab: A^-1 per body, (B, 3, 3) (identity for decoupled bodies).
-    tri_vidx: global vertex indices of each triangle (T, 3).
+    body_shape_tri: the row of ``shape_vidx`` where the body's shape starts, (B,) int32:
+        a body's triangle k is its shape's, so its global vertex indices are
+        shape_vidx[body_shape_tri + k] + body_vert_base (one table of vertex indices per
+        shape, not per body: ``kernels/prim_lookup.py``).
     body_quadric: the analytic shape a body is traced as (``rigid_shapes``'s
         ``exact_quadrics``; ``kernels.quadrics`` codes), else 0, (B,); quadric_inv /
         quadric_centre / quadric_param: the shape is the canonical solid of that code in
@@ -78,7 +90,8 @@ class RigidShapes(TriangleTables):
     body_start_lo: np.ndarray
     body_start_hi: np.ndarray
     rest_from_lab: np.ndarray
-    tri_vidx: np.ndarray
+    shape_vidx: np.ndarray
+    body_shape_tri: np.ndarray
     body_quadric: np.ndarray
     quadric_inv: np.ndarray
     quadric_centre: np.ndarray
@@ -145,8 +158,18 @@ def all_exact_quadrics(scene: Scene) -> bool:
     return bool(shaped) and all(quadric_body(b, True) for b in shaped)
 
 
-def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
-    """The shapes and shading tables of every body of ``scene`` (no frame enters).
+def shading_tables(shapes: RigidShapes, dtype) -> RigidShapes:
+    """``shapes`` with its shading tables' floats in ``dtype``: itself when they are, else
+    made again from its bodies (a float64 render of shapes made for float32 ones: the
+    tables are never rounded to float32 and back)."""
+    if shapes.tri_normal.dtype == np.dtype(dtype):
+        return shapes
+    return _rigid_shapes(shapes.bodies, False, dtype)
+
+
+def rigid_shapes(scene: Scene, exact_quadrics: bool = False, dtype=np.float32) -> RigidShapes:
+    """The shapes and shading tables of every body of ``scene`` (no frame enters), the
+    tables' floats in ``dtype`` (the kernels' float type, see ``RigidShapes``).
 
     With ``exact_quadrics`` a body whose one surface is a UsdGeom.Sphere, Cylinder, Cone
     or Capsule is traced as that exact shape (``body_quadric``): its boxes are the
@@ -169,10 +192,27 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
     thousands of pieces cost one bottom level: a ray meets it as L^-T (r_f(s) - c)
     (``body_map``), the same lookback s.
     """
+    return _rigid_shapes(tuple(scene.bodies), exact_quadrics, dtype)
+
+
+def _held(bt, dtype):
+    """``bt`` (a ``BodyTriangles`` or None) as held until its rows are taken: triangles
+    int32, the shading floats already in ``dtype``, texture coordinates that are all
+    zeros (untextured surfaces) left out (None): every body's triangles are held at once,
+    and this holds ~80 bytes per triangle less (the host's peak over ``rigid_shapes`` fell
+    from 175 to 147 bytes per triangle, docs/design/database-size.md)."""
+    if bt is None:
+        return None
+    return dataclasses.replace(bt, triangles=bt.triangles.astype(np.int32), normals=bt.normals.astype(dtype),
+                               tri_normal=bt.tri_normal.astype(dtype), tri_size=bt.tri_size.astype(dtype),
+                               tri_st=bt.tri_st.astype(dtype) if bt.tri_st.any() else None)
+
+
+def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
     materials: list = []
     mat_index: dict = {}
-    n_bodies = len(scene.bodies)
-    found = [body_triangles(b, materials, mat_index) if b.surfaces else None for b in scene.bodies]
+    n_bodies = len(bodies)
+    found = [_held(body_triangles(b, materials, mat_index), dtype) if b.surfaces else None for b in bodies]
     keys = [None if bt is None else (bt.rest.astype(np.float32).tobytes(), bt.triangles.astype(np.int32).tobytes())
             for bt in found]
     uses: dict = {}
@@ -186,7 +226,7 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
     vert_base = np.zeros(n_bodies, np.int64)
     box_lo, box_hi = np.zeros((n_bodies, 3)), np.zeros((n_bodies, 3))
     rest_lo, rest_hi = np.zeros((n_bodies, 3)), np.zeros((n_bodies, 3))
-    frame = np.array([[b.reference_time, *b.origin] for b in scene.bodies], dtype=np.float64).reshape(-1, 4)
+    frame = np.array([[b.reference_time, *b.origin] for b in bodies], dtype=np.float64).reshape(-1, 4)
     frame_of = np.arange(n_bodies)  # the body whose frame a body's shape is held in
     groups: dict = {}
     rest_from_lab = np.tile(np.eye(3), (n_bodies, 1, 1))
@@ -197,10 +237,11 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
     mapped = np.zeros(n_bodies, np.int32)
     body_map = np.tile(np.eye(3), (n_bodies, 1, 1))
     map_shift = np.zeros((n_bodies, 3))
-    tables = {k: [] for k in ("normals", "vidx", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material",
+    tables = {k: [] for k in ("normals", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material",
                               "tri_st")}
     n_tri = n_vert = 0
-    for i, (body, bt, key) in enumerate(zip(scene.bodies, found, keys)):
+    for i, (body, bt, key) in enumerate(zip(bodies, found, keys)):
+        found[i] = None  # each body's triangles freed once its rows are taken
         tri_base[i], vert_base[i] = n_tri, n_vert
         rest_from_lab[i] = np.linalg.inv(contraction_matrix(body.velocity, body.decoupled))
         if bt is None:
@@ -221,7 +262,7 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
             mapped[i], body_map[i], map_shift[i] = 1, unturn.T, shift
         if key not in shapes:
             shapes[key] = len(shape_rest)
-            shape_rest.append(bt.rest @ unturn if piece else rest)
+            shape_rest.append((bt.rest @ unturn if piece else rest).astype(np.float32))
             shape_tris.append(bt.triangles.astype(np.int32))
         body_shape[i] = shapes[key]
         box_lo[i], box_hi[i] = bt.local.min(axis=0), bt.local.max(axis=0)
@@ -246,13 +287,12 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
             lab_centre = origin + a @ (t - origin)
             box_lo[i], box_hi[i] = lab_centre - lab_half, lab_centre + lab_half
         tables["normals"].append(bt.normals)
-        tables["vidx"].append(bt.triangles + n_vert)
         tables["tri_normal"].append(bt.tri_normal)
         tables["tri_smooth"].append(bt.tri_smooth)
         tables["tri_size"].append(bt.tri_size)
         tables["tri_body"].append(np.full(len(bt.triangles), i, np.int32))
         tables["tri_material"].append(bt.tri_material)
-        tables["tri_st"].append(bt.tri_st)
+        tables["tri_st"].append(np.zeros((len(bt.triangles), 3, 2), dtype) if bt.tri_st is None else bt.tri_st)
         n_tri += len(bt.triangles)
         n_vert += len(bt.local)
     # Each body's queries start where the ray enters the rest box of its whole frame.
@@ -263,25 +303,30 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False) -> RigidShapes:
         start_hi[members] = rest_hi[members].max(axis=0)
 
     textured = any(t is not None for m in materials for t in m.textures)
+    shape_vidx = np.concatenate(shape_tris) if shape_tris else np.zeros((0, 3), np.int32)
+    shape_first = np.cumsum([0] + [len(t) for t in shape_tris])
+    body_shape_tri = np.where(body_shape >= 0, shape_first[np.maximum(body_shape, 0)], 0).astype(np.int32)
 
     def cat(name, shape, dtype):
         parts = tables[name]
-        return np.concatenate(parts).astype(dtype) if parts else np.zeros(shape, dtype)
+        return np.ascontiguousarray(np.concatenate(parts), dtype=dtype) if parts else np.zeros(shape, dtype)
 
     return RigidShapes(
-        shape_rest=tuple(shape_rest), shape_triangles=tuple(shape_tris), body_shape=body_shape,
+        shape_rest=tuple(shape_rest), shape_triangles=tuple(shape_vidx[a:b] for a, b in zip(shape_first[:-1],
+                                                                                             shape_first[1:])),
+        shape_vidx=shape_vidx, body_shape_tri=body_shape_tri, body_shape=body_shape,
         body_tri_base=tri_base, body_vert_base=vert_base, body_box_lo=box_lo, body_box_hi=box_hi,
         body_frame=frame[frame_of], body_rest_lo=rest_lo, body_rest_hi=rest_hi, body_start_lo=start_lo,
         body_start_hi=start_hi, rest_from_lab=rest_from_lab, body_quadric=quadric, quadric_inv=quadric_inv,
         quadric_centre=quadric_centre, quadric_param=quadric_param, body_mapped=mapped, body_map=body_map,
-        body_map_shift=map_shift, vertex_normals=cat("normals", (0, 3), np.float64),
-        tri_vidx=cat("vidx", (0, 3), np.int32), tri_normal=cat("tri_normal", (0, 3), np.float64),
-        tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), np.float64),
+        body_map_shift=map_shift, vertex_normals=cat("normals", (0, 3), dtype),
+        tri_normal=cat("tri_normal", (0, 3), dtype),
+        tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), dtype),
         tri_body=cat("tri_body", (0,), np.int32), tri_material=cat("tri_material", (0,), np.int32),
-        materials=tuple(materials), bodies=tuple(scene.bodies),
+        materials=tuple(materials), bodies=bodies,
         # Texture coordinates only serve textured materials (rendering/device_textures.py):
         # without any, the table of zeros (48 bytes per triangle) is left out.
-        tri_st=cat("tri_st", (0, 3, 2), np.float64) if textured else np.zeros((0, 3, 2)),
+        tri_st=cat("tri_st", (0, 3, 2), dtype) if textured else np.zeros((0, 3, 2), dtype),
     )
 
 

@@ -1,0 +1,110 @@
+"""What a rigid database holds, table by table: the count behind its bytes per triangle (issue 17).
+
+``rigid_tables`` walks every array a rigid ``database_cache.Database`` keeps alive: the
+host tables of its shapes (``spacetime.rigid.RigidShapes``), motion segments and top
+level, the bottom levels' ``wp.Mesh`` (their points and indices, and the native memory
+Warp allocates for each, ``WP_MESH_NATIVE_BYTES_PER_TRIANGLE``), the uploaded arrays of
+each precision (``device_rigid.RigidArrays``) and the recentred geometries it caches.
+Each buffer is counted once, under the first name that reaches it: a device array made
+over a host table without a copy costs nothing more. The scene's own bodies and surfaces
+(what the reader made) are not the database's and are not counted.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+__all__ = ["Table", "rigid_tables", "total_bytes", "WP_MESH_NATIVE_BYTES_PER_TRIANGLE"]
+
+#: Warp 1.19's CPU wp.Mesh of n triangles allocates, besides the points and indices it is
+#: given (native/mesh.cpp, native/bvh.cpp): 2n - 1 nodes of two 16-byte halves and a
+#: parent index each, whatever the leaf size (64 + 8 bytes per triangle), the primitive
+#: permutation (4) and each triangle's bounds, kept for refits (2 x 12).
+WP_MESH_NATIVE_BYTES_PER_TRIANGLE = 2 * (2 * 16 + 4) + 4 + 2 * 12
+
+
+@dataclass(frozen=True)
+class Table:
+    """One counted buffer: where it lives and what it is, its rows and bytes."""
+
+    name: str
+    dtype: str
+    rows: int
+    nbytes: int
+
+
+def total_bytes(tables: list[Table]) -> int:
+    return int(sum(t.nbytes for t in tables))
+
+
+class _Counter:
+    def __init__(self):
+        self.tables: list[Table] = []
+        self.spans: list = []  # the memory counted so far: disjoint (start, end)
+
+    def add(self, name: str, value) -> None:
+        """Count ``value`` (an array, or a tuple / list / struct of them) under ``name``."""
+        if isinstance(value, np.ndarray):
+            self._buffer(name, value.__array_interface__["data"][0], str(value.dtype), len(value) if value.ndim else 1,
+                         value.nbytes)
+        elif isinstance(value, wp.array):
+            size = int(value.size) * wp.types.type_size_in_bytes(value.dtype)
+            self._buffer(name, value.ptr, wp.types.type_repr(value.dtype), int(value.shape[0]) if value.ndim else 1,
+                         size)
+        elif isinstance(value, (tuple, list)):
+            for item in value:
+                self.add(name, item)
+        elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+            for f in dataclasses.fields(value):
+                self.add(f"{name}.{f.name}", getattr(value, f.name))
+        elif hasattr(value, "_cls") and hasattr(value._cls, "vars"):  # a wp.struct instance
+            for field_name in value._cls.vars:
+                self.add(f"{name}.{field_name}", getattr(value, field_name))
+
+    def _buffer(self, name: str, ptr, dtype: str, rows: int, nbytes: int) -> None:
+        """Count the bytes of [ptr, ptr + nbytes) no buffer counted before covers (a view of
+        one, or an array over its memory, adds nothing)."""
+        if nbytes == 0 or not ptr:
+            return
+        start, end = int(ptr), int(ptr) + int(nbytes)
+        overlapping = [(a, b) for a, b in self.spans if a < end and start < b]  # the spans are disjoint
+        nbytes -= sum(min(end, b) - max(start, a) for a, b in overlapping)
+        self.spans = [sp for sp in self.spans if sp not in overlapping] + [
+            (min([start] + [a for a, _ in overlapping]), max([end] + [b for _, b in overlapping]))]
+        if nbytes <= 0:
+            return
+        for i, t in enumerate(self.tables):  # several buffers under one name (a tuple): one row
+            if t.name == name and t.dtype == dtype:
+                self.tables[i] = Table(name, dtype, t.rows + rows, t.nbytes + nbytes)
+                return
+        self.tables.append(Table(name, dtype, rows, nbytes))
+
+
+def rigid_tables(db) -> list[Table]:
+    """Every buffer of the rigid database ``db`` (see the module docstring), largest first."""
+    c = _Counter()
+    skip = {"materials", "bodies"}  # the scene's own
+    for f in dataclasses.fields(db.shapes):
+        if f.name not in skip:
+            c.add(f"host shapes.{f.name}", getattr(db.shapes, f.name))
+    c.add("host segments", db.segments)
+    c.add("host top level", db.bvh)
+    bottom = db.bottom
+    c.add("host bottom.body_mesh", bottom.body_mesh)
+    for mesh in bottom.meshes:
+        c.add("wp.Mesh points", mesh.points)
+        c.add("wp.Mesh indices", mesh.indices)
+    tris = sum(len(m.indices) // 3 for m in bottom.meshes)
+    if tris:
+        c.tables.append(Table("wp.Mesh native (BVH nodes, parents, permutation, bounds)", "bytes", tris,
+                              tris * WP_MESH_NATIVE_BYTES_PER_TRIANGLE))
+    for precision, static in db.static.items():
+        for name, value in vars(static).items():
+            if name != "bottom":
+                c.add(f"{precision} {name}", value)
+    for key, geometry in db.geometry.items():
+        c.add(f"{key[0]} frame geometry", geometry)
+    return sorted(c.tables, key=lambda t: -t.nbytes)
