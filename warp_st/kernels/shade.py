@@ -99,7 +99,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         exactly the corners >= a + stride are tops."""
         stride = shd.body_points[body]
         if stride > 0:
-            idx = geo.prim_vidx[prim]
+            idx = prim_vertices(geo, prim)
             top = idx[0] + stride
             u = (lam[0] * corner_velocity(shd, idx[0], top, stride) + lam[1] * corner_velocity(shd, idx[1], top, stride)
                  + lam[2] * corner_velocity(shd, idx[2], top, stride) + lam[3] * corner_velocity(shd, idx[3], top, stride))
