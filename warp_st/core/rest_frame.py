@@ -23,18 +23,27 @@ the resampling, not a probe.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from warp_st.core.deform import PointSamples
 from warp_st.core.lorentz import contract, gamma
+from warp_st.core.scene import surface_keep
 
-__all__ = ["REST_LAB_TOLERANCE", "lab_samples", "rest_speeds", "MAX_LAB_ROUNDS"]
+__all__ = ["REST_LAB_TOLERANCE", "BEND_TOLERANCE", "MAX_BEND_LEVELS", "MAX_LAB_ROUNDS", "lab_samples", "rest_speeds",
+           "surface_edges", "edge_bends", "midpoint_subdivide"]
 
 #: Largest distance between the resampled lab worldlines and the boosted rest polylines, as
 #: a fraction of the body's size (its largest rest extent).
 REST_LAB_TOLERANCE = 1.0e-4
 #: Bisection rounds of :func:`lab_samples` (each halves every interval still too coarse).
 MAX_LAB_ROUNDS = 24
+#: Largest bend of a lab-simultaneous slice of a rest edge off the drawn straight edge
+#: (:func:`edge_bends`), as a fraction of the body's size: surfaces are cut (midpoint
+#: subdivision, each level quartering the bend) until within it, at most MAX_BEND_LEVELS times.
+BEND_TOLERANCE = 2.5e-4
+MAX_BEND_LEVELS = 3
 
 
 def rest_speeds(rest: PointSamples) -> np.ndarray:
@@ -46,14 +55,16 @@ def rest_speeds(rest: PointSamples) -> np.ndarray:
 
 
 def lab_samples(rests: list[PointSamples], origin, velocity, reference_time: float, size: float,
-                tolerance: float = REST_LAB_TOLERANCE) -> list[PointSamples]:
+                tolerance: float = REST_LAB_TOLERANCE, grid=None) -> list[PointSamples]:
     """The lab samples of a body's surfaces animated in its rest frame, at common lab times.
 
     rests: each surface's points in S' at rest times t' (``times``, lab units; t' = 0 at the
         lab event (t_ref, o)) as world positions o + y;
     origin o, velocity v (|v| < 1), reference_time t_ref: S' (docs/spec.md §2);
     size: the body's size; the common lab times follow every point's lab polyline within
-        ``tolerance`` x size.
+        ``tolerance`` x size;
+    grid: lab times to sample at instead (no refinement: a subdivided surface is sampled at
+        the times its vertices and edge midpoints needed).
     Returns one ``PointSamples`` per surface, all at the same lab times, points
     o + contract(y(t'_j), v): the lab positions without the uniform motion v (t - t_ref),
     which the deforming path adds (``core.deform.PointSamples``). Before and after the rest
@@ -63,40 +74,103 @@ def lab_samples(rests: list[PointSamples], origin, velocity, reference_time: flo
     o = np.asarray(origin, dtype=np.float64)
     v = np.asarray(velocity, dtype=np.float64)
     scale = float(gamma(v))
-    knots_t, knots_x = [], []  # per point: its own lab knot times (N,) and positions there (N, 3)
+    knots_t, knots_x = [], []  # per surface: each point's own lab knot times (N, P), positions there (N, P, 3)
     for rest in rests:
         y = np.asarray(rest.points, dtype=np.float64) - o  # (N, P, 3)
         g = rest.times[:, None] + y @ v  # (t - t_ref) / gamma at each knot, (N, P)
         if not (np.diff(g, axis=0) > 0.0).all():
             raise ValueError("rest-frame motion at or above the speed of light (t' + v.y must increase)")
-        x = o + contract(y, v)
-        knots_t += list((reference_time + scale * g).T)
-        knots_x += list(x.transpose(1, 0, 2))
+        knots_t.append(reference_time + scale * g)
+        knots_x.append(o + contract(y, v))
     tol = tolerance * max(size, 1e-12)
 
-    def at(times: np.ndarray) -> np.ndarray:
-        """Every point's lab position (uniform motion left out) at lab ``times``, (M, P, 3)."""
-        return np.stack([np.stack([np.interp(times, t, x[:, c]) for c in range(3)], axis=1)
-                         for t, x in zip(knots_t, knots_x)], axis=1)
+    def at(times: np.ndarray) -> list[np.ndarray]:
+        """Every point's lab position (uniform motion left out) at lab ``times``, (M, P, 3) per surface."""
+        out = []
+        for t, x in zip(knots_t, knots_x):
+            val = np.empty((len(times), t.shape[1], 3))
+            for j in range(t.shape[1]):
+                for c in range(3):
+                    val[:, j, c] = np.interp(times, t[:, j], x[:, j, c])
+            out.append(val)
+        return out
 
-    lo = min(float(t[0]) for t in knots_t)
-    hi = max(float(t[-1]) for t in knots_t)
+    if grid is not None:  # resampled at given lab times (no refinement)
+        return [PointSamples(times=np.asarray(grid, dtype=np.float64), points=val) for val in at(grid)]
+    lo = min(float(t.min()) for t in knots_t)
+    hi = max(float(t.max()) for t in knots_t)
     grid = np.linspace(lo, hi, max(2, max(len(r.times) for r in rests)))
     for _ in range(MAX_LAB_ROUNDS):
         values = at(grid)
         worst = np.zeros(len(grid) - 1)
-        for j, (t, x) in enumerate(zip(knots_t, knots_x)):  # the chord between grid times at the point's knots
-            chord = np.stack([np.interp(t, grid, values[:, j, c]) for c in range(3)], axis=1)
-            k = np.clip(np.searchsorted(grid, t, side="right") - 1, 0, len(grid) - 2)
-            np.maximum.at(worst, k, np.linalg.norm(chord - x, axis=1))
+        for t, x, val in zip(knots_t, knots_x, values):  # the chord between grid times at each point's knots
+            k = np.clip(np.searchsorted(grid, t, side="right") - 1, 0, len(grid) - 2)  # (N, P)
+            f = np.clip((t - grid[k]) / (grid[k + 1] - grid[k]), 0.0, 1.0)[..., None]
+            cols = np.arange(t.shape[1])[None, :]
+            chord = (1.0 - f) * val[k, cols] + f * val[k + 1, cols]
+            np.maximum.at(worst, k.ravel(), np.linalg.norm(chord - x, axis=2).ravel())
         coarse = worst > tol
         if not coarse.any():
             break
         grid = np.sort(np.concatenate([grid, 0.5 * (grid[:-1] + grid[1:])[coarse]]))
-    values = at(grid)
-    out, base = [], 0
-    for rest in rests:
-        n = rest.points.shape[1]
-        out.append(PointSamples(times=grid, points=values[:, base:base + n]))
-        base += n
+    return [PointSamples(times=grid, points=val) for val in at(grid)]
+
+
+def surface_edges(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct undirected edges (E, 2) of triangles (T, 3), and each triangle's three
+    edges (a-b, b-c, c-a) as indices into them, (T, 3)."""
+    tris = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    pairs = np.stack([tris, np.roll(tris, -1, axis=1)], axis=2).reshape(-1, 2)
+    edges, inverse = np.unique(np.sort(pairs, axis=1), axis=0, return_inverse=True)
+    return edges, inverse.reshape(-1, 3)
+
+
+def edge_bends(labs: list[PointSamples], edges: list[np.ndarray], mids: list[PointSamples]) -> list[float]:
+    """Per surface: the largest distance, over the common lab times, between an edge's
+    midpoint (``mids``: the lab samples of the rest-frame midpoints, in ``edges`` order) and
+    the middle of its ends' lab positions: how far a lab-simultaneous slice of a straight
+    rest edge bends off the straight edge the deforming path draws (0 for a still body)."""
+    out = []
+    for lab, e, mid in zip(labs, edges, mids):
+        if not len(e):
+            out.append(0.0)
+            continue
+        middle = 0.5 * (lab.points[:, e[:, 0]] + lab.points[:, e[:, 1]])
+        out.append(float(np.linalg.norm(mid.points - middle, axis=2).max()))
     return out
+
+
+def midpoint_subdivide(surface, rest: PointSamples):
+    """``surface`` (a ``core.scene.Surface``) and its rest samples with every triangle cut
+    into four at its edges' midpoints (orientation kept; normals, st and per-face materials
+    carried; degenerate index triples dropped). A straight rest edge's midpoint is the mean
+    of its ends at every rest time (USD's transforms are affine, its points linear)."""
+    keep = surface_keep(surface)
+    tris = np.asarray(surface.triangles, dtype=np.int64).reshape(-1, 3)[keep]
+    edges, tri_edges = surface_edges(tris)
+    n = len(surface.points)
+    m = n + tri_edges  # (T, 3): the midpoints of a-b, b-c, c-a
+    a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
+    new = np.stack([np.stack([a, m[:, 0], m[:, 2]], 1), np.stack([m[:, 0], b, m[:, 1]], 1),
+                    np.stack([m[:, 2], m[:, 1], c], 1), m], axis=1).reshape(-1, 3)
+    points = np.concatenate([surface.points, 0.5 * (surface.points[edges[:, 0]] + surface.points[edges[:, 1]])])
+    normals = surface.normals
+    if normals is not None:
+        mid = normals[edges[:, 0]] + normals[edges[:, 1]]
+        length = np.linalg.norm(mid, axis=1, keepdims=True)
+        normals = np.concatenate([normals, np.where(length > 1e-12, mid / np.maximum(length, 1e-300),
+                                                    normals[edges[:, 0]])])
+    st = surface.st
+    if st is not None:
+        s = np.asarray(st, dtype=np.float64)[keep]
+        sm = 0.5 * (s + np.roll(s, -1, axis=1))  # (T, 3, 2): st at a-b, b-c, c-a
+        st = np.stack([np.stack([s[:, 0], sm[:, 0], sm[:, 2]], 1), np.stack([sm[:, 0], s[:, 1], sm[:, 1]], 1),
+                       np.stack([sm[:, 2], sm[:, 1], s[:, 2]], 1), sm], axis=1).reshape(-1, 3, 2)
+    material = surface.triangle_material
+    if material is not None:
+        material = np.repeat(np.asarray(material)[keep], 4)
+    rest_points = np.concatenate([rest.points, 0.5 * (rest.points[:, edges[:, 0]] + rest.points[:, edges[:, 1]])],
+                                 axis=1)
+    return (dataclasses.replace(surface, points=points, triangles=new, normals=normals, st=st,
+                                triangle_material=material),
+            PointSamples(times=rest.times, points=rest_points))

@@ -13,12 +13,22 @@ already in them.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 from pxr import UsdGeom
 
 from warp_st.core.deform import PointSamples
-from warp_st.core.rest_frame import lab_samples, rest_speeds
+from warp_st.core.rest_frame import (
+    BEND_TOLERANCE,
+    MAX_BEND_LEVELS,
+    edge_bends,
+    lab_samples,
+    midpoint_subdivide,
+    rest_speeds,
+    surface_edges,
+)
+from warp_st.core.scene import surface_triangles
 from warp_st.usd import attributes as A
 from warp_st.usd.animation import animated_op
 from warp_st.usd.deform import points_sample_times, sample_surface
@@ -73,13 +83,35 @@ def _check_speed(where: A.Where, stage, surface, rest: PointSamples) -> None:
 
 def rest_frame_surfaces(where: A.Where, stage, body, notes) -> list:
     """``body``'s surfaces (a reader ``_BodyBuilder`` with ``origin``, ``velocity``,
-    ``reference_time``) with lab ``samples`` boosted from their rest-frame motion."""
-    rest = [_rest_samples(where, stage, s, notes) for s in body.surfaces]
-    for surface, samples in zip(body.surfaces, rest):
+    ``reference_time``) with lab ``samples`` boosted from their rest-frame motion, each cut
+    (midpoint subdivision) until its edges' lab bend is estimated within BEND_TOLERANCE x
+    the body's size (a bend quarters per level), at most MAX_BEND_LEVELS times."""
+    surfaces = list(body.surfaces)
+    rest = [_rest_samples(where, stage, s, notes) for s in surfaces]
+    for surface, samples in zip(surfaces, rest):
         _check_speed(where, stage, surface, samples)
     every = np.concatenate([r.points.reshape(-1, 3) for r in rest])
     size = float(np.max(every.max(axis=0) - every.min(axis=0))) if len(every) else 0.0
+    edges = [surface_edges(surface_triangles(s))[0] for s in surfaces]
+    mids = [PointSamples(times=r.times, points=0.5 * (r.points[:, e[:, 0]] + r.points[:, e[:, 1]])) for r, e in
+            zip(rest, edges)]
+    labs = lab_samples(rest + mids, body.origin, body.velocity, body.reference_time, size)
+    bends = edge_bends(labs[:len(rest)], edges, labs[len(rest):])
+    tol = BEND_TOLERANCE * max(size, 1e-12)
+    levels = [min(MAX_BEND_LEVELS, max(0, math.ceil(math.log(b / tol, 4)))) if b > tol else 0 for b in bends]
+    for i, level in enumerate(levels):
+        for _ in range(level):
+            surfaces[i], rest[i] = midpoint_subdivide(surfaces[i], rest[i])
+    if any(levels):  # the subdivided surfaces at the times their vertices and edge midpoints needed
+        labs = lab_samples(rest, body.origin, body.velocity, body.reference_time, size, grid=labs[0].times)
+    left = max((b / 4.0 ** level for b, level in zip(bends, levels)), default=0.0)
+    notes.info(body.prim_path, ANIMATION_FRAME, f"animated in its rest frame: {len(labs[0].times)} lab samples; "
+                                                f"surfaces cut {max(levels, default=0)} time(s) for the bend of "
+                                                f"simultaneity (largest {max(bends, default=0.0):.3g}, now about "
+                                                f"{left:.3g}; tolerance {tol:.3g})", "RestFrame")
+    if left > tol:
+        notes.warn(body.prim_path, ANIMATION_FRAME, f"the lab slices of its edges bend by about {left:.3g} off the "
+                                                    f"drawn edges (> {tol:.3g}): refine the mesh", "RestFrameBend")
     t_static = where.lab_per_code * (where.static or 0.0)
-    labs = lab_samples(rest, body.origin, body.velocity, body.reference_time, size)
     return [dataclasses.replace(surface, samples=lab, points=lab.at(t_static), sphere=None, quadric=None)
-            for surface, lab in zip(body.surfaces, labs)]
+            for surface, lab in zip(surfaces, labs)]
