@@ -31,20 +31,22 @@ def _edge(*masks) -> np.ndarray:
 
 
 def test_wheel_hits_lie_on_the_rotated_rest_wheel(tmp_path):
-    """Frames 9 and 11 (the wheel passes the camera 8 away). Bound 2e-3 (issue 18): the
-    tetrahedra stay within DEFORM_TOLERANCE x 2 (the size) = 5e-4 of the lab samples, which
-    are within 3e-4 of the boosted rotation (tests/usd/test_rest_frame_reader.py); carried to
-    S' a lab error grows by at most gamma (1 + v |u'|) = 3 along v; float32 hits ~1e-5."""
-    scene = warp_st.load(write(tmp_path, "wheel.usda", wheel_stage()))
+    """The wheel's tread (its caps left out: the test stays small) at frames 9 and 11 (it
+    passes the camera 8 away). Bound 2e-3 (issue 18): the tetrahedra stay within
+    DEFORM_TOLERANCE x 2 (the size) = 5e-4 of the lab samples, which are within 3e-4 of the
+    boosted rotation at the vertices (tests/usd/test_rest_frame_reader.py) and bend between
+    them by about 1.1e-3 after three subdivisions (the reader's estimate, an upper one);
+    float32 hits ~1e-5. Measured: 9.4e-4 at frame 9. Unsubdivided (a mutation) 0.02."""
+    scene = warp_st.load(write(tmp_path, "wheel.usda", wheel_stage(caps=False)))
+    renderer = Renderer(scene, frames=[9.0, 11.0], width=W, height=H)
+    assert renderer.primitive == "tet"
     for frame in (9.0, 11.0):
-        renderer = Renderer(scene, frames=[frame], width=W, height=H)
-        assert renderer.primitive == "tet"
         image = renderer.render(frame)
         times, points, _s = hit_events(scene, image, frame, W, H)
-        assert len(times) > 200, frame
+        assert len(times) > 150, frame
         t_rest, r = to_rest(times, points)
         assert -12.0 < t_rest.min() and t_rest.max() < 12.0  # inside the rest samples: it spins there
-        error = prism_distance(r)
+        error = prism_distance(r, caps=False)
         assert error.max() <= 2e-3, (frame, float(error.max()), float(np.percentile(error, 99)))
 
 
