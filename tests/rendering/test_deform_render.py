@@ -19,19 +19,10 @@ import warp_st
 from warp_st.core.scene import SceneError
 from warp_st.rendering.renderer import Renderer
 
-from animation_stages import hit_events, write
+from animation_stages import edge_pixels as _edge, hit_events, write
 from deform_stages import flag_samples, grid, mesh_stage, skinned_box_stage, usd_surface_distance
 
 W, H = 128, 96
-
-
-def _edge(*masks) -> np.ndarray:
-    """Pixels next to a silhouette of any mask."""
-    edge = np.zeros_like(masks[0])
-    for mask in masks:
-        for axis in (0, 1):
-            edge |= (mask != np.roll(mask, 1, axis)) | (mask != np.roll(mask, -1, axis))
-    return edge
 
 
 def test_translating_points_render_as_four_velocity(tmp_path):

@@ -15,19 +15,10 @@ import pytest
 import warp_st
 from warp_st.rendering.renderer import Renderer
 
-from animation_stages import hit_events, write
+from animation_stages import edge_pixels as _edge, hit_events, write
 from rest_frame_stages import prism_distance, to_rest, wheel_stage
 
 W, H = 96, 72
-
-
-def _edge(*masks) -> np.ndarray:
-    """Pixels next to a silhouette of any mask."""
-    edge = np.zeros_like(masks[0])
-    for mask in masks:
-        for axis in (0, 1):
-            edge |= (mask != np.roll(mask, 1, axis)) | (mask != np.roll(mask, -1, axis))
-    return edge
 
 
 def test_wheel_hits_lie_on_the_rotated_rest_wheel(tmp_path):

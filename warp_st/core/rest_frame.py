@@ -31,8 +31,8 @@ from warp_st.core.deform import PointSamples
 from warp_st.core.lorentz import contract, gamma
 from warp_st.core.scene import surface_keep
 
-__all__ = ["REST_LAB_TOLERANCE", "BEND_TOLERANCE", "MAX_BEND_LEVELS", "MAX_LAB_ROUNDS", "lab_samples", "rest_speeds",
-           "surface_edges", "edge_bends", "midpoint_subdivide"]
+__all__ = ["REST_LAB_TOLERANCE", "BEND_TOLERANCE", "BEND_EDGES", "MAX_BEND_LEVELS", "MAX_LAB_ROUNDS", "lab_samples",
+           "rest_speeds", "surface_edges", "bend_edges", "edge_bends", "midpoint_subdivide"]
 
 #: Largest distance between the resampled lab worldlines and the boosted rest polylines, as
 #: a fraction of the body's size (its largest rest extent).
@@ -41,8 +41,9 @@ REST_LAB_TOLERANCE = 1.0e-4
 MAX_LAB_ROUNDS = 24
 #: Largest bend of a lab-simultaneous slice of a rest edge off the drawn straight edge
 #: (:func:`edge_bends`), as a fraction of the body's size: surfaces are cut (midpoint
-#: subdivision, each level quartering the bend) until within it, at most MAX_BEND_LEVELS times.
-BEND_TOLERANCE = 2.5e-4
+#: subdivision, each level quartering the bend) until within it, at most MAX_BEND_LEVELS times
+#: (2e-3 for a wheel of diameter 2: issue 18's bound).
+BEND_TOLERANCE = 1.0e-3
 MAX_BEND_LEVELS = 3
 
 
@@ -64,7 +65,7 @@ def lab_samples(rests: list[PointSamples], origin, velocity, reference_time: flo
     size: the body's size; the common lab times follow every point's lab polyline within
         ``tolerance`` x size;
     grid: lab times to sample at instead (no refinement: a subdivided surface is sampled at
-        the times its vertices and edge midpoints needed).
+        the lab times its vertices needed).
     Returns one ``PointSamples`` per surface, all at the same lab times, points
     o + contract(y(t'_j), v): the lab positions without the uniform motion v (t - t_ref),
     which the deforming path adds (``core.deform.PointSamples``). Before and after the rest
@@ -73,47 +74,58 @@ def lab_samples(rests: list[PointSamples], origin, velocity, reference_time: flo
     """
     o = np.asarray(origin, dtype=np.float64)
     v = np.asarray(velocity, dtype=np.float64)
-    scale = float(gamma(v))
-    knots_t, knots_x = [], []  # per surface: each point's own lab knot times (N, P), positions there (N, P, 3)
-    for rest in rests:
-        y = np.asarray(rest.points, dtype=np.float64) - o  # (N, P, 3)
-        g = rest.times[:, None] + y @ v  # (t - t_ref) / gamma at each knot, (N, P)
-        if not (np.diff(g, axis=0) > 0.0).all():
-            raise ValueError("rest-frame motion at or above the speed of light (t' + v.y must increase)")
-        knots_t.append(reference_time + scale * g)
-        knots_x.append(o + contract(y, v))
-    tol = tolerance * max(size, 1e-12)
+    boosted = [_boosted(rest, o, v, reference_time) for rest in rests]
+    if grid is None:
+        grid = _lab_grid(boosted, tolerance * max(size, 1e-12), max(len(r.times) for r in rests))
+    grid = np.asarray(grid, dtype=np.float64)
+    return [PointSamples(times=grid, points=_at(grid, t, x)) for t, x in boosted]
 
-    def at(times: np.ndarray) -> list[np.ndarray]:
-        """Every point's lab position (uniform motion left out) at lab ``times``, (M, P, 3) per surface."""
-        out = []
-        for t, x in zip(knots_t, knots_x):
-            val = np.empty((len(times), t.shape[1], 3))
-            for j in range(t.shape[1]):
-                for c in range(3):
-                    val[:, j, c] = np.interp(times, t[:, j], x[:, j, c])
-            out.append(val)
-        return out
 
-    if grid is not None:  # resampled at given lab times (no refinement)
-        return [PointSamples(times=np.asarray(grid, dtype=np.float64), points=val) for val in at(grid)]
-    lo = min(float(t.min()) for t in knots_t)
-    hi = max(float(t.max()) for t in knots_t)
-    grid = np.linspace(lo, hi, max(2, max(len(r.times) for r in rests)))
+#: Points per block when a body's lab positions are evaluated (bounds the arrays' size).
+_BLOCK = 256
+
+
+def _boosted(rest: PointSamples, o: np.ndarray, v: np.ndarray, reference_time: float):
+    """Each point's own lab knot times (N, P) and its lab positions there less the uniform
+    motion, o + contract(y, v) (N, P, 3)."""
+    y = np.asarray(rest.points, dtype=np.float64) - o  # (N, P, 3)
+    g = rest.times[:, None] + y @ v  # (t - t_ref) / gamma at each knot, (N, P)
+    if not (np.diff(g, axis=0) > 0.0).all():
+        raise ValueError("rest-frame motion at or above the speed of light (t' + v.y must increase)")
+    return reference_time + float(gamma(v)) * g, o + contract(y, v)
+
+
+def _at(times: np.ndarray, knots: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The points' lab positions at ``times``, (M, P, 3): linear between each one's knots, held outside."""
+    out = np.empty((len(times), knots.shape[1], 3))
+    for j in range(knots.shape[1]):
+        for c in range(3):
+            out[:, j, c] = np.interp(times, knots[:, j], x[:, j, c])
+    return out
+
+
+def _lab_grid(boosted, tol: float, count: int) -> np.ndarray:
+    """Common lab times, bisected until linear interpolation between them is within ``tol``
+    of every point's lab polyline at each of its knots (where a polyline is farthest from a chord)."""
+    lo = min(float(t.min()) for t, _ in boosted)
+    hi = max(float(t.max()) for t, _ in boosted)
+    grid = np.linspace(lo, hi, max(2, count))
     for _ in range(MAX_LAB_ROUNDS):
-        values = at(grid)
         worst = np.zeros(len(grid) - 1)
-        for t, x, val in zip(knots_t, knots_x, values):  # the chord between grid times at each point's knots
-            k = np.clip(np.searchsorted(grid, t, side="right") - 1, 0, len(grid) - 2)  # (N, P)
-            f = np.clip((t - grid[k]) / (grid[k + 1] - grid[k]), 0.0, 1.0)[..., None]
-            cols = np.arange(t.shape[1])[None, :]
-            chord = (1.0 - f) * val[k, cols] + f * val[k + 1, cols]
-            np.maximum.at(worst, k.ravel(), np.linalg.norm(chord - x, axis=2).ravel())
+        for knots, x in boosted:
+            for j0 in range(0, knots.shape[1], _BLOCK):
+                t, xb = knots[:, j0:j0 + _BLOCK], x[:, j0:j0 + _BLOCK]
+                val = _at(grid, t, xb)
+                k = np.clip(np.searchsorted(grid, t, side="right") - 1, 0, len(grid) - 2)  # (N, B)
+                f = np.clip((t - grid[k]) / (grid[k + 1] - grid[k]), 0.0, 1.0)[..., None]
+                cols = np.arange(t.shape[1])[None, :]
+                chord = (1.0 - f) * val[k, cols] + f * val[k + 1, cols]
+                np.maximum.at(worst, k.ravel(), np.linalg.norm(chord - xb, axis=2).ravel())
         coarse = worst > tol
         if not coarse.any():
             break
         grid = np.sort(np.concatenate([grid, 0.5 * (grid[:-1] + grid[1:])[coarse]]))
-    return [PointSamples(times=grid, points=val) for val in at(grid)]
+    return grid
 
 
 def surface_edges(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -125,18 +137,43 @@ def surface_edges(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return edges, inverse.reshape(-1, 3)
 
 
-def edge_bends(labs: list[PointSamples], edges: list[np.ndarray], mids: list[PointSamples]) -> list[float]:
-    """Per surface: the largest distance, over the common lab times, between an edge's
-    midpoint (``mids``: the lab samples of the rest-frame midpoints, in ``edges`` order) and
-    the middle of its ends' lab positions: how far a lab-simultaneous slice of a straight
-    rest edge bends off the straight edge the deforming path draws (0 for a still body)."""
+#: Edges per surface whose bend is measured: those longest along v (the bend grows as |e| |e.v|).
+BEND_EDGES = 256
+
+
+def bend_edges(surface, rest: PointSamples, velocity) -> np.ndarray:
+    """The BEND_EDGES edges (E, 2) of ``surface`` with the largest |e| |e.v| at its first rest sample."""
+    edges, _ = surface_edges(np.asarray(surface.triangles, dtype=np.int64).reshape(-1, 3)[surface_keep(surface)])
+    if not len(edges):
+        return edges
+    e = rest.points[0, edges[:, 1]] - rest.points[0, edges[:, 0]]
+    weight = np.linalg.norm(e, axis=1) * np.abs(e @ np.asarray(velocity, dtype=np.float64))
+    return edges[np.argsort(-weight, kind="stable")[:BEND_EDGES]]
+
+
+def edge_bends(rests, labs, edges, origin, velocity, reference_time: float) -> list[float]:
+    """Per surface: the largest distance, at the lab samples' times, between the lab position
+    of the rest-frame midpoint of an edge (``edges``, per surface) and the middle of its ends'
+    lab positions (``labs``): how far a lab-simultaneous slice of a straight rest edge bends
+    off the straight edge the deforming path draws (0 for a still body). Only while the
+    edge's ends and midpoint are all within their rest samples: where the animation starts
+    or stops (USD holds the ends) a slice across the start is kinked, not bent."""
+    o = np.asarray(origin, dtype=np.float64)
+    v = np.asarray(velocity, dtype=np.float64)
     out = []
-    for lab, e, mid in zip(labs, edges, mids):
+    for rest, lab, e in zip(rests, labs, edges):
         if not len(e):
             out.append(0.0)
             continue
+        mid = PointSamples(times=rest.times, points=0.5 * (rest.points[:, e[:, 0]] + rest.points[:, e[:, 1]]))
+        mid_lab = lab_samples([mid], o, v, reference_time, 1.0, grid=lab.times)[0]
         middle = 0.5 * (lab.points[:, e[:, 0]] + lab.points[:, e[:, 1]])
-        out.append(float(np.linalg.norm(mid.points - middle, axis=2).max()))
+        first, last = (np.stack([reference_time + float(gamma(v)) * (rest.times[i] + (p[i] - o) @ v)
+                                 for p in (rest.points[:, e[:, 0]], rest.points[:, e[:, 1]], mid.points)])
+                       for i in (0, -1))  # (3, E): the lab times the ends and the midpoint start and stop
+        inside = (lab.times[:, None] >= first.max(axis=0)) & (lab.times[:, None] <= last.min(axis=0))  # (M, E)
+        bend = np.where(inside, np.linalg.norm(mid_lab.points - middle, axis=2), 0.0)
+        out.append(float(bend.max()))
     return out
 
 

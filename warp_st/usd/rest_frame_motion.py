@@ -22,13 +22,12 @@ from warp_st.core.deform import PointSamples
 from warp_st.core.rest_frame import (
     BEND_TOLERANCE,
     MAX_BEND_LEVELS,
+    bend_edges,
     edge_bends,
     lab_samples,
     midpoint_subdivide,
     rest_speeds,
-    surface_edges,
 )
-from warp_st.core.scene import surface_triangles
 from warp_st.usd import attributes as A
 from warp_st.usd.animation import animated_op
 from warp_st.usd.deform import points_sample_times, sample_surface
@@ -36,6 +35,8 @@ from warp_st.usd.deform import points_sample_times, sample_surface
 __all__ = ["ANIMATION_FRAME", "FRAMES", "animation_frame", "rest_frame_surfaces"]
 
 ANIMATION_FRAME = "spacetime:animationFrame"
+#: Most rest-sample values (times x points x 3) a surface may be subdivided to (160 MB).
+MAX_SUBDIVIDED_VALUES = 20_000_000
 #: "lab": the animation is lab-frame kinematics (§2.1); "rest": it is the body's own rest frame's.
 FRAMES = ("lab", "rest")
 
@@ -92,24 +93,25 @@ def rest_frame_surfaces(where: A.Where, stage, body, notes) -> list:
         _check_speed(where, stage, surface, samples)
     every = np.concatenate([r.points.reshape(-1, 3) for r in rest])
     size = float(np.max(every.max(axis=0) - every.min(axis=0))) if len(every) else 0.0
-    edges = [surface_edges(surface_triangles(s))[0] for s in surfaces]
-    mids = [PointSamples(times=r.times, points=0.5 * (r.points[:, e[:, 0]] + r.points[:, e[:, 1]])) for r, e in
-            zip(rest, edges)]
-    labs = lab_samples(rest + mids, body.origin, body.velocity, body.reference_time, size)
-    bends = edge_bends(labs[:len(rest)], edges, labs[len(rest):])
+    labs = lab_samples(rest, body.origin, body.velocity, body.reference_time, size)
+    edges = [bend_edges(s, r, body.velocity) for s, r in zip(surfaces, rest)]
+    bends = edge_bends(rest, labs, edges, body.origin, body.velocity, body.reference_time)
     tol = BEND_TOLERANCE * max(size, 1e-12)
     levels = [min(MAX_BEND_LEVELS, max(0, math.ceil(math.log(b / tol, 4)))) if b > tol else 0 for b in bends]
+    for i, r in enumerate(rest):  # a level quadruples the points (and their samples): within the budget
+        while levels[i] and r.points.size * 4 ** levels[i] > MAX_SUBDIVIDED_VALUES:
+            levels[i] -= 1
     for i, level in enumerate(levels):
         for _ in range(level):
             surfaces[i], rest[i] = midpoint_subdivide(surfaces[i], rest[i])
-    if any(levels):  # the subdivided surfaces at the times their vertices and edge midpoints needed
+    if any(levels):  # the subdivided surfaces at the lab times their first vertices needed
         labs = lab_samples(rest, body.origin, body.velocity, body.reference_time, size, grid=labs[0].times)
     left = max((b / 4.0 ** level for b, level in zip(bends, levels)), default=0.0)
     notes.info(body.prim_path, ANIMATION_FRAME, f"animated in its rest frame: {len(labs[0].times)} lab samples; "
                                                 f"surfaces cut {max(levels, default=0)} time(s) for the bend of "
                                                 f"simultaneity (largest {max(bends, default=0.0):.3g}, now about "
                                                 f"{left:.3g}; tolerance {tol:.3g})", "RestFrame")
-    if left > tol:
+    if left > 4.0 * tol:  # more than a level short (the subdivision budget): visible at fine resolutions
         notes.warn(body.prim_path, ANIMATION_FRAME, f"the lab slices of its edges bend by about {left:.3g} off the "
                                                     f"drawn edges (> {tol:.3g}): refine the mesh", "RestFrameBend")
     t_static = where.lab_per_code * (where.static or 0.0)
