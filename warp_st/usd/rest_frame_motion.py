@@ -29,7 +29,7 @@ from warp_st.core.rest_frame import (
     rest_speeds,
 )
 from warp_st.usd import attributes as A
-from warp_st.usd.animation import animated_op
+from warp_st.usd.animation import animated_op, xform_sample_times
 from warp_st.usd.deform import points_sample_times, sample_surface
 
 __all__ = ["ANIMATION_FRAME", "FRAMES", "animation_frame", "rest_frame_surfaces"]
@@ -76,7 +76,9 @@ def _check_speed(where: A.Where, stage, surface, rest: PointSamples) -> None:
     k = int(np.argmax(speeds))
     prim = stage.GetPrimAtPath(surface.prim_path)
     owner, op = (prim, "points") if points_sample_times(prim) else animated_op(prim)
-    lo, hi = (float(t) / where.lab_per_code for t in rest.times[k:k + 2])
+    a, b = (float(t) / where.lab_per_code for t in rest.times[k:k + 2])  # refined samples: USD's around them
+    usd = sorted(set(points_sample_times(prim)) | set(xform_sample_times(prim))) or [a, b]
+    lo, hi = max([s for s in usd if s <= a] or [a]), min([s for s in usd if s >= b] or [b])
     raise where.error(owner, op, f"a point of the body moves at {float(speeds[k]):.6g} c in its rest frame "
                                  f"(spacetime:animationFrame = \"rest\") between time codes {lo:g} and {hi:g} "
                                  "(>= the speed of light); slow the animation")
