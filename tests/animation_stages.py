@@ -112,6 +112,15 @@ def spinning_rod(tip_speed: float = 0.7, half_length: float = 2.0) -> str:
 '''
 
 
+def edge_pixels(*masks) -> np.ndarray:
+    """Pixels next to a silhouette of any mask."""
+    edge = np.zeros_like(masks[0])
+    for mask in masks:
+        for axis in (0, 1):
+            edge |= (mask != np.roll(mask, 1, axis)) | (mask != np.roll(mask, -1, axis))
+    return edge
+
+
 def write(tmp_path: Path, name: str, text: str) -> str:
     path = tmp_path / name
     path.write_text(text)

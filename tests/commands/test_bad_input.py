@@ -36,6 +36,9 @@ CASES = {
     "nan_velocity": ("custom double4 spacetime:fourVelocity = (1, nan, 0, 0)", "spacetime:fourVelocity"),
     "inf_reference_time": ("custom double spacetime:referenceTime = inf", "spacetime:referenceTime"),
     "wrong_type": ('custom string spacetime:fourVelocity = "fast"', "spacetime:fourVelocity"),
+    "animation_frame_unknown": ('custom uniform token spacetime:animationFrame = "axle"', "spacetime:animationFrame"),
+    "animation_frame_rest_decoupled": ('custom uniform token spacetime:animationFrame = "rest"\n'
+                                       '    custom bool spacetime:lorentzDecoupled = true', "spacetime:animationFrame"),
 }
 
 

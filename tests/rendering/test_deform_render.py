@@ -21,7 +21,7 @@ from warp_st.core.scene import SceneError
 from warp_st.rendering.renderer import Renderer
 from warp_st.spacetime.adaptive import min_pixel_angle
 
-from animation_stages import hit_events, write
+from animation_stages import edge_pixels as _edge, hit_events, write
 from deform_stages import flag_samples, mesh_stage, skinned_box_stage, translating_quad_stages, usd_surface_distance
 
 W, H = 128, 96
@@ -36,15 +36,6 @@ def _half_pixel(scene, frame) -> float:
     bound = 0.5 * min_pixel_angle(scene.camera_state(None, frame), SW, SH) + 1e-5
     assert bound < 2e-3
     return bound
-
-
-def _edge(*masks) -> np.ndarray:
-    """Pixels next to a silhouette of any mask."""
-    edge = np.zeros_like(masks[0])
-    for mask in masks:
-        for axis in (0, 1):
-            edge |= (mask != np.roll(mask, 1, axis)) | (mask != np.roll(mask, -1, axis))
-    return edge
 
 
 def test_translating_points_render_as_four_velocity(tmp_path):

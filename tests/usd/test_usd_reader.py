@@ -90,8 +90,8 @@ def test_schemas_registered_after_import():
         """
     )
     info = json.loads(run_python(code))
-    assert info["body"] == ["spacetime:fourVelocity", "spacetime:lifetime", "spacetime:lorentzDecoupled",
-                            "spacetime:referenceTime"]
+    assert info["body"] == ["spacetime:animationFrame", "spacetime:fourVelocity", "spacetime:lifetime",
+                            "spacetime:lorentzDecoupled", "spacetime:referenceTime"]
     assert info["camera"] == ["spacetime:lightSpeed", "spacetime:time"]
     assert info["fourVelocity"] == [1, 0, 0, 0]
     assert info["lifetime"] == ["-inf", "inf"]

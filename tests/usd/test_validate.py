@@ -59,6 +59,12 @@ def Xform "Ship" (prepend apiSchemas = ["SpacetimeBodyAPI"])
     custom double4 spacetime:fourVelocity = (1, 0.6, 0.8, 0)
     def Cube "Hull" {}
 }""", [("ERROR", "/Ship.spacetime:fourVelocity", "|v| = 1 >= 1")]),
+    "animation_frame": ("""
+def Xform "Ship" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{
+    custom uniform token spacetime:animationFrame = "axle"
+    def Cube "Hull" {}
+}""", [("ERROR", "/Ship.spacetime:animationFrame", "must be one of lab, rest; got 'axle'")]),
     "time_component": ("""
 def Xform "Ship" (prepend apiSchemas = ["SpacetimeBodyAPI"])
 {

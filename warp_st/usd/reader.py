@@ -83,6 +83,7 @@ from warp_st.usd.light_speed import (
 )
 from warp_st.usd.lights import SUPPORTED, read_light
 from warp_st.usd.products import read_products
+from warp_st.usd.rest_frame_motion import animation_frame, rest_frame_surfaces
 from warp_st.usd.stage import open_stage, tf_message
 
 __all__ = ["load_scene", "read_stage", "open_stage", "CameraEvaluator", "body_kinematics"]
@@ -103,6 +104,7 @@ class _BodyBuilder:
     surfaces: list[Surface] = field(default_factory=list)
     api: bool = False  # carries SpacetimeBodyAPI (else: a gprim at rest, a body of its own)
     motion: object = None  # BodyMotion when USD animates it (docs/spec.md §2.1)
+    rest_frame: bool = False  # spacetime:animationFrame = "rest" (usd/rest_frame_motion.py)
 
     def build(self) -> Body:
         return Body(self.prim_path, tuple(self.surfaces), self.origin, self.velocity,
@@ -146,6 +148,8 @@ class _StageReader:
         if settings_prim is not None:
             check_prim(self.notes, settings_prim, self.where.time)
         for body in self.bodies:
+            if body.rest_frame and body.surfaces:  # lab samples boosted from its rest frame (§2.1, 0.7.0)
+                body.surfaces = rest_frame_surfaces(self.where, self.stage, body, self.notes)
             self._deforming_body(body)
             self._check_points(body)
         bodies = tuple(b.build() for b in self.bodies if b.surfaces)
@@ -243,7 +247,11 @@ class _StageReader:
             if has_api(prim, SPACETIME_BODY_API):
                 v, t_ref, life, decoupled = body_kinematics(self.where, prim)
                 body = _BodyBuilder(str(path), _translation(self._world(prim)), v, t_ref, life, decoupled, api=True)
-                self._animate(body, prim)
+                body.rest_frame = animation_frame(self.where, prim, decoupled) == "rest"
+                if body.rest_frame:  # its motion is sampled per gprim, in its rest frame
+                    self._animation_samples(prim)
+                else:
+                    self._animate(body, prim)
                 owners.append((path, body))
                 self.bodies.append(body)
             if hidden is not None:
@@ -262,7 +270,7 @@ class _StageReader:
                 self._owner(owners, prim).surfaces.extend(self.gprims.instancer_surfaces(prim))
                 it.PruneChildren()  # prototypes are drawn only through their instances
             elif prim.IsA(UsdGeom.Gprim):
-                if not owners:
+                if not owners or owners[-1][1].rest_frame:  # (a rest-frame body samples each gprim's own)
                     self._animation_samples(prim)
                 surface = self._deformed(prim)
                 if surface is not None:
@@ -319,6 +327,8 @@ class _StageReader:
         times = np.concatenate([s.samples.times for s in deforming]) / self.where.lab_per_code  # time codes
         how = "Lorentz-decoupled: its points are lab positions" + ("" if body.decoupled or not body.api else
                                                                      " (spacetime:lorentzDecoupled is not set)")
+        if body.rest_frame:
+            how = "animated in its rest frame: its points are lab positions boosted from it (§2.1)"
         self.notes.info(body.prim_path, None, f"deforming: {len(deforming)} surface(s) sampled at "
                                               f"{len(np.unique(times))} time codes ({times.min():g} to {times.max():g}); "
                                               f"{how}; the scene renders on the tetrahedral path", "Deforming")

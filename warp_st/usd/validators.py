@@ -41,6 +41,7 @@ from warp_st.usd.camera import CameraEvaluator
 from warp_st.usd.geometry import SUPPORTED_GPRIMS, GprimReader, is_hidden, world_transform
 from warp_st.usd.lights import SUPPORTED
 from warp_st.usd.materials import preview_defaults
+from warp_st.usd.rest_frame_motion import animation_frame
 from warp_st.usd.stage import tf_message
 
 __all__ = ["Problem", "KEYWORD", "BUILTIN", "register", "validate_stage", "counts"]
@@ -241,10 +242,19 @@ def _spacetime_body(prim) -> list:
     errors = _errors(stage, lambda: body_kinematics(where, prim))
     if prim.IsA(UsdGeom.Camera):
         return errors
+    errors += _errors(stage, lambda: animation_frame(where, prim, _decoupled(where, prim)))
     xf = UsdGeom.XformCache(where.time)  # its pivot o (docs/spec.md §2), as the reader reads it
     errors += _errors(stage, lambda: world_transform(where, prim, lambda: xf.GetLocalToWorldTransform(prim),
                                                      where.time), every=False)
     return errors
+
+
+def _decoupled(where: Where, prim) -> bool:
+    """``spacetime:lorentzDecoupled`` as the reader reads it (False when bad: listed already)."""
+    try:
+        return bool(body_kinematics(where, prim)[3])
+    except SceneError:
+        return False
 
 
 def _geometry(prim) -> list:
