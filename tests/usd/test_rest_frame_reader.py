@@ -18,7 +18,7 @@ from warp_st.core.scene import SceneError
 from warp_st.spacetime.deform import points_at
 
 from animation_stages import write
-from rest_frame_stages import PHASE, PIVOT, R, T_REF, V, OMEGA, lab_event, rest_vertices, wheel_stage
+from rest_frame_stages import PHASE, PIVOT, R, V, OMEGA, lab_event, rest_vertices, wheel_stage
 
 #: The bound of the lab worldlines against the closed form: the rest samples follow USD's
 #: rotation within PROBE_TOLERANCE (1e-5) x (1 + |p|) <= 2.7e-5 (|p| <= 1.7), which the
