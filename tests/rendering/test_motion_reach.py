@@ -1,0 +1,153 @@
+"""Animated bodies are cut only where the frames can reach them (spacetime/reach.py, issue 18).
+
+Laws:
+- clipping never changes an image: the examples' orbit, rod and wheel render every
+  channel bit for bit alike with and without it (each frame alone and as a sequence); the
+  pieces of the chunks kept are the same rows either way (a chunk is cut from its own
+  start), so nothing is left to rounding;
+- a single frame of a long animation cuts a small part of the pieces the whole span
+  would, and a frame at the end of it still sees the body;
+- a shadow the animated body casts from times outside its direct view still falls (the
+  reach holds the shadow rays' reach, not only the past lightcone's).
+"""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import warp_st
+from warp_st.rendering import renderer as renderer_module
+from warp_st.rendering.renderer import Renderer
+from warp_st.spacetime.animation import animation_cuts, piece_count
+
+from animation_stages import CUBE, HEADER, orbit_degrees, write
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "animation"
+W, H = 48, 27
+CHANNELS = ("rgba", "depth", "event_time", "proper_time", "doppler", "object_id", "source_time", "bounces")
+
+
+def _unclipped(monkeypatch):
+    """The renderer with every chunk cut (a reach that names no body)."""
+    monkeypatch.setattr(renderer_module, "motion_reach", lambda scene, margins, **_: {})
+
+
+def _images(scene, frames, width=W, height=H):
+    """(images per frame of one Renderer for ``frames``, its animated segment count)."""
+    r = Renderer(scene, frames=frames, width=width, height=height)
+    return [r.render(f) for f in frames], r.describe()["animated_segments"]
+
+
+def _assert_same(a, b):
+    for name in CHANNELS:
+        x, y = getattr(a, name), getattr(b, name)
+        assert np.array_equal(x, y, equal_nan=np.issubdtype(np.asarray(x).dtype, np.floating)), name
+
+
+@pytest.mark.parametrize("name", ["circular_orbit", "spinning_rod", "rolling_wheel"])
+def test_clipping_changes_no_image(name, monkeypatch):
+    scene = warp_st.load(str(EXAMPLES / f"{name}.usda"))
+    alone, alone_pieces = _images(scene, [70.0])
+    seq, seq_pieces = _images(warp_st.load(str(EXAMPLES / f"{name}.usda")), [40.0, 70.0])
+    _unclipped(monkeypatch)
+    full_alone, full_alone_pieces = _images(warp_st.load(str(EXAMPLES / f"{name}.usda")), [70.0])
+    full_seq, full_seq_pieces = _images(warp_st.load(str(EXAMPLES / f"{name}.usda")), [40.0, 70.0])
+    # the clipping did drop pieces (the chunks after the last frame at least)
+    assert alone_pieces < full_alone_pieces and seq_pieces < full_seq_pieces
+    assert (alone[0].object_id > 0).sum() > 0.3 * W * H
+    for a, b in zip(alone + seq, full_alone + full_seq):
+        _assert_same(a, b)
+
+
+def _long_orbit(tmp_path, end=1000.0):
+    """A cube on a 0.5c orbit of radius 5 over time codes 0 to ``end`` (no light: the reach
+    is the past lightcone's)."""
+    text = HEADER.replace("endTimeCode = 100", f"endTimeCode = {end:g}") + f'''def Xform "Orbit"
+{{
+    double xformOp:rotateY.timeSamples = {{ 0: 0, {end:g}: {orbit_degrees(0.5, 5.0, end)!r} }}
+    uniform token[] xformOpOrder = ["xformOp:rotateY"]
+    def Xform "Moon" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+    {{
+        double3 xformOp:translate = (5, 0, 0)
+        uniform token[] xformOpOrder = ["xformOp:translate"]
+        {CUBE}
+    }}
+}}
+'''
+    return write(tmp_path, "long_orbit.usda", text)
+
+
+def test_a_single_frame_of_a_long_animation_cuts_few_pieces(tmp_path):
+    scene = warp_st.load(_long_orbit(tmp_path))
+    cam = scene.camera_state(None, 500.0)
+    (_i, whole), = animation_cuts(scene, [cam], width=64, height=36)
+    renderer = Renderer(scene, frames=[500.0], width=64, height=36)
+    clipped = renderer.describe()["animated_segments"]
+    # The camera is 14 from the orbit's centre: the cube is seen about 9 to 19 time units
+    # before the frame; with the chunks (about 1.6 time units) and the held ends, a few
+    # dozen pieces of the whole span's thousands.
+    assert piece_count(whole) > 1000
+    assert clipped < 0.05 * piece_count(whole)
+    end = Renderer(scene, frames=[1000.0], width=64, height=36)
+    image = end.render(1000.0)
+    assert end.describe()["animated_segments"] < 0.05 * piece_count(whole)
+    assert (image.object_id == 1).sum() > 10  # the cube, seen at the end of its motion
+
+
+def _shadow_stage(tmp_path):
+    """A camera at (0, 1, 0) looking down -Z at the floor around (0, 0, -10); a cube 20
+    above that floor point moving slowly along +X and turning, lit from straight above. The cube's
+    shadow on the floor point is cast 30 before the frame (10 to the floor, 20 down to
+    it), while the camera sees the cube itself about 21.5 before the frame: outside
+    the cube's direct reach (its radius 1, its chunks about 1.2 time units)."""
+    text = '''#usda 1.0
+(
+    upAxis = "Y"
+    startTimeCode = 0
+    endTimeCode = 100
+)
+def Camera "Cam"
+{
+    double3 xformOp:translate = (0, 1, 0)
+    float3 xformOp:rotateXYZ = (-6, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
+    float focalLength = 24
+}
+def DistantLight "Sun"
+{
+    float inputs:intensity = 2.5
+    float3 xformOp:rotateXYZ = (-90, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
+}
+def Mesh "Floor"
+{
+    point3f[] points = [(-8, 0, -16), (8, 0, -16), (8, 0, -4), (-8, 0, -4)]
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 3, 2, 1]
+}
+def Xform "Box" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{
+    double3 xformOp:translate.timeSamples = { 0: (-3, 20, -10), 100: (3, 20, -10) }
+    double xformOp:rotateY.timeSamples = { 0: 0, 100: 1000 }
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateY"]
+    def Cube "C"
+    {
+        double size = 1.6
+    }
+}
+'''
+    return write(tmp_path, "shadow.usda", text)
+
+
+def test_a_shadow_cast_outside_the_direct_reach_still_falls(tmp_path, monkeypatch):
+    path = _shadow_stage(tmp_path)
+    (clipped,), clipped_pieces = _images(warp_st.load(path), [60.0], 64, 48)
+    _unclipped(monkeypatch)
+    (full,), full_pieces = _images(warp_st.load(path), [60.0], 64, 48)
+    assert clipped_pieces < full_pieces
+    floor = full.object_id == 1
+    lit = full.rgba[..., 0][floor]
+    # the unclipped image has the shadow: floor pixels far darker than the lit floor
+    assert (lit < 0.1 * lit.max()).sum() >= 4
+    assert (full.object_id == 2).sum() == 0  # and not the cube itself (it is out of view)
+    _assert_same(clipped, full)

@@ -1,0 +1,121 @@
+"""Which chunks of each animated body's motion the frames can reach (issue 18).
+
+An animated body is cut into pieces of uniform motion (``spacetime.animation``); cutting
+and holding pieces the frames never see is what made a single frame of a long animation
+cost as much as the whole. Here each chunk of its probes (``animation.motion_chunks``)
+stands in as a ball at rest for the chunk's lab times: the box of the pivot's probe
+positions (linear interpolation between probes stays inside it), grown by the body's
+extent about its pivot (R times the largest singular value of the probes' linear parts;
+the contraction only shrinks it) and by how far the pieces may stray from the probes
+(their tolerance). Before the first probe and after the last, the body is held: a ball
+moving with the held velocity. Every body point the pieces hold at a chunk's times is
+inside its ball, so the visibility windows of those stand-ins (``visibility_windows``:
+the frames' past lightcones, mirror paths and shadow rays, with the other bodies of the
+scene as they are) hold every time at which any frame can see the body, or its shadow,
+or its reflection: a chunk whose stand-in has no window is not cut, nor one after the
+last camera event (light reaches a camera only from its past; the windows of a large body
+such as a floor reach past it, their ball holding the camera).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from warp_st.core.deform import surface_hull_points
+from warp_st.core.scene import Body, Scene, Surface
+from warp_st.spacetime.animation import body_radius, motion_chunks
+from warp_st.spacetime.visibility import visibility_windows
+
+__all__ = ["motion_reach", "body_extent"]
+
+_OCTAHEDRON = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]])
+
+
+def body_extent(body: Body) -> float:
+    """A bound on the distance of any point of ``body``'s surfaces from its static pivot,
+    at the start time code: the points (every sample of a deforming surface) and the
+    analytic spheres and quadrics the triangles approximate (traced exactly, or
+    re-tessellated finer, they reach past the points)."""
+    pivot = body.motion.static_pivot
+    out = 0.0
+    for s in body.surfaces:
+        pts = surface_hull_points(s)
+        if len(pts):
+            out = max(out, float(np.linalg.norm(pts - pivot, axis=1).max()))
+        for shape, half in ((s.sphere, lambda q: q[0]), (s.quadric, _quadric_half)):
+            if shape is not None:
+                m = np.asarray(shape[-1], dtype=np.float64).reshape(4, 4)
+                out = max(out, float(np.linalg.norm(m[3, :3] - pivot) + np.linalg.norm(m[:3, :3], ord=2) * half(shape)))
+    return out
+
+
+def _quadric_half(quadric) -> float:
+    """The largest distance of a quadric's points from its centre, in its own units."""
+    kind, _axis, radius, height = quadric[:4]
+    return radius + 0.5 * height if kind == "capsule" else float(np.hypot(radius, 0.5 * height))
+
+
+def _stand_in(body: Body, centre, radius: float, velocity, t_ref: float, lifetime) -> Body:
+    """A body whose visibility ball is (centre at t_ref, radius) moving with ``velocity``,
+    over ``lifetime``: six points at +-radius along the axes, flagged a sphere so that
+    ``visibility.body_pieces`` keeps it one ball; a mirror if any of ``body``'s surfaces is."""
+    radius = radius * (1.0 + 1e-12) + 1e-12  # past the rounding of the ball around the points
+    points = np.asarray(centre, dtype=np.float64) + radius * np.vstack([np.eye(3), -np.eye(3)])[[0, 3, 1, 4, 2, 5]]
+    material = next((s.material for s in body.surfaces if s.material.metallic > 0.0), body.surfaces[0].material)
+    place = np.eye(4)
+    place[3, :3] = centre
+    surface = Surface(prim_path=body.prim_path, points=points, triangles=_OCTAHEDRON, material=material,
+                      sphere=(radius, place))
+    lo, hi = max(lifetime[0], body.lifetime[0]), min(lifetime[1], body.lifetime[1])
+    return Body(prim_path=body.prim_path, surfaces=(surface,), origin=np.asarray(centre, dtype=np.float64),
+                velocity=np.asarray(velocity, dtype=np.float64), reference_time=float(t_ref),
+                lifetime=(float(lo), float(hi)), decoupled=True)
+
+
+def _stand_ins(body: Body, margin: float) -> tuple[list[Body], int]:
+    """The chunks' stand-ins of animated ``body`` in chunk order, then its two held ends;
+    and the number of chunks."""
+    m = body.motion
+    extent = body_extent(body)
+    scale = np.linalg.norm(m.linear, ord=2, axis=(1, 2))
+    bounds = motion_chunks(body, body_radius(body))
+    out = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        pts = m.pivot[a:b + 1]
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        radius = 0.5 * float(np.linalg.norm(hi - lo)) + extent * float(scale[a:b + 1].max()) + margin
+        out.append(_stand_in(body, 0.5 * (lo + hi), radius, np.zeros(3), 0.0, (m.times[a], m.times[b])))
+    for k, life in ((0, (-np.inf, m.times[0])), (-1, (m.times[-1], np.inf))):
+        out.append(_stand_in(body, m.pivot[k], extent * float(scale[k]) + margin, m.hold_velocity, m.times[k], life))
+    return out, len(bounds) - 1
+
+
+def motion_reach(scene: Scene, margins: dict, *, cameras, infinite_modes=(False,), max_depth: int = 0,
+                 shutter: float = 0.0) -> dict:
+    """{body index: (chunks,) bool, the chunks of its motion some frame can reach} for the
+    animated bodies in ``margins`` ({index: how far its pieces may stray from its probes}),
+    for the frames' camera states ``cameras`` under each light-speed mode of
+    ``infinite_modes`` (True: infinite), ``max_depth`` mirror bounces and ``shutter``
+    (as ``visibility_windows`` takes them)."""
+    bodies, owners, counts = [], [], {}
+    for i, body in enumerate(scene.bodies):
+        if i not in margins:
+            bodies.append(body)
+            owners.append(None)
+            continue
+        stand_ins, counts[i] = _stand_ins(body, margins[i])
+        bodies.extend(stand_ins)
+        owners.extend([(i, q) for q in range(counts[i])] + [None, None])
+    stand_in_scene = dataclasses.replace(scene, bodies=tuple(bodies))
+    cameras = list(cameras)
+    # Every event on a path of light that ends at a camera event (a hit, a mirror's, a
+    # shadow ray's occluder) is no later than it: nothing after the last camera event counts.
+    latest = max([c.time for c in cameras] + [c.advanced(shutter).time for c in cameras if shutter > 0.0])
+    out = {i: np.zeros(n, dtype=bool) for i, n in counts.items()}
+    for infinite in sorted(set(infinite_modes)):
+        windows = visibility_windows(stand_in_scene, cameras, infinite=infinite, max_depth=max_depth, shutter=shutter)
+        for owner, window in zip(owners, windows):
+            if owner is not None and window is not None and window[0][0] <= latest:
+                out[owner[0]][owner[1]] = True
+    return out
