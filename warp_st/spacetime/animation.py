@@ -96,18 +96,22 @@ def _dense_times(body: Body, tol: np.ndarray, radius: float) -> tuple[np.ndarray
 MAX_PARTS = 64
 
 
-#: Most chunks a body's probes are grouped into (``motion_chunks``).
+#: Most chunks a body's probes are grouped into, and the longest chunk in lab time in
+#: units of the body's radius R about its pivot (``motion_chunks``).
 MAX_CHUNKS = 256
+CHUNK_RADII = 4.0
 
 
 def motion_chunks(body: Body, radius: float) -> np.ndarray:
     """Indices of the probes that bound ``body``'s chunks, increasing from 0 to the last:
-    consecutive probe intervals grouped while a chunk lasts at most max(R, the probes' span
-    / MAX_CHUNKS) (one interval at least). The cutting restarts at every chunk's start and
-    a chunk is cut only where the frames can reach it (``spacetime.reach``): a chunk's
-    pieces do not depend on which other chunks are cut."""
+    consecutive probe intervals grouped while a chunk lasts at most max(CHUNK_RADII x R, the
+    probes' span / MAX_CHUNKS) (one interval at least). The cutting restarts at every
+    chunk's start and a chunk is cut only where the frames can reach it
+    (``spacetime.reach``): a chunk's pieces do not depend on which other chunks are cut.
+    A frame reaches a body over about its light-crossing time 2 R at least, so chunks of a
+    few R lose little of the clipping; each restart costs at most one piece."""
     t = body.motion.times
-    length = max(radius, (t[-1] - t[0]) / MAX_CHUNKS)
+    length = max(CHUNK_RADII * radius, (t[-1] - t[0]) / MAX_CHUNKS)
     bounds, first = [0], t[0]
     for k in range(1, len(t) - 1):
         if t[k + 1] - first > length:
@@ -219,7 +223,7 @@ def animation_cuts(scene: Scene, cameras, *, width: int, height: int, pixels: fl
     the pieces within ``pixels`` pixels for every camera state of ``cameras``. ``reach``:
     ``reach(scene, margins) -> {body index: per chunk, whether the frames reach it}``
     (``spacetime.reach.motion_reach``; margins: per body index, how far its pieces may
-    stray from its probes); None: every chunk is cut."""
+    stray from each of its probes); None: every chunk is cut."""
     cameras = list(cameras)
     animated = [i for i, b in enumerate(scene.bodies) if b.motion is not None and b.surfaces]
     if not animated:
@@ -227,7 +231,7 @@ def animation_cuts(scene: Scene, cameras, *, width: int, height: int, pixels: fl
     angle = min((min_pixel_angle(c, width, height) for c in cameras), default=np.inf)
     radii = {i: body_radius(scene.bodies[i]) for i in animated}
     tols = {i: _tolerances(scene.bodies[i], radii[i], cameras, angle, pixels) for i in animated}
-    kept = reach(scene, {i: float(tol.max()) for i, tol in tols.items()}) if reach is not None and cameras else {}
+    kept = reach(scene, tols) if reach is not None and cameras else {}
     return tuple((i, _body_cuts(scene.bodies[i], tols[i], radii[i], kept.get(i))) for i in animated)
 
 

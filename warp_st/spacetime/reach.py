@@ -25,7 +25,8 @@ import numpy as np
 from warp_st.core.deform import surface_hull_points
 from warp_st.core.scene import Body, Scene, Surface
 from warp_st.spacetime.animation import body_radius, motion_chunks
-from warp_st.spacetime.visibility import visibility_windows
+from warp_st.spacetime.shadow_reach import earliest_shadow_times, static_shadow_scene
+from warp_st.spacetime.visibility import intersection, union, visibility_windows
 
 __all__ = ["motion_reach", "body_extent"]
 
@@ -73,49 +74,70 @@ def _stand_in(body: Body, centre, radius: float, velocity, t_ref: float, lifetim
                 lifetime=(float(lo), float(hi)), decoupled=True)
 
 
-def _stand_ins(body: Body, margin: float) -> tuple[list[Body], int]:
+def _stand_ins(body: Body, margin: np.ndarray) -> tuple[list[Body], np.ndarray, int]:
     """The chunks' stand-ins of animated ``body`` in chunk order, then its two held ends;
-    and the number of chunks."""
+    their balls (centre, radius), (chunks + 2, 4); and the number of chunks."""
     m = body.motion
     extent = body_extent(body)
     scale = np.linalg.norm(m.linear, ord=2, axis=(1, 2))
     bounds = motion_chunks(body, body_radius(body))
-    out = []
+    balls = []
     for a, b in zip(bounds[:-1], bounds[1:]):
         pts = m.pivot[a:b + 1]
         lo, hi = pts.min(axis=0), pts.max(axis=0)
-        radius = 0.5 * float(np.linalg.norm(hi - lo)) + extent * float(scale[a:b + 1].max()) + margin
-        out.append(_stand_in(body, 0.5 * (lo + hi), radius, np.zeros(3), 0.0, (m.times[a], m.times[b])))
+        radius = (0.5 * float(np.linalg.norm(hi - lo)) + extent * float(scale[a:b + 1].max())
+                  + float(margin[a:b + 1].max()))
+        balls.append((0.5 * (lo + hi), radius, np.zeros(3), 0.0, (m.times[a], m.times[b])))
     for k, life in ((0, (-np.inf, m.times[0])), (-1, (m.times[-1], np.inf))):
-        out.append(_stand_in(body, m.pivot[k], extent * float(scale[k]) + margin, m.hold_velocity, m.times[k], life))
-    return out, len(bounds) - 1
+        balls.append((m.pivot[k], extent * float(scale[k]) + float(margin[k]), m.hold_velocity, m.times[k], life))
+    out = [_stand_in(body, *ball) for ball in balls]
+    return out, np.array([[*b.origin, b.surfaces[0].sphere[0]] for b in out]), len(bounds) - 1
 
 
 def motion_reach(scene: Scene, margins: dict, *, cameras, infinite_modes=(False,), max_depth: int = 0,
                  shutter: float = 0.0) -> dict:
     """{body index: (chunks,) bool, the chunks of its motion some frame can reach} for the
-    animated bodies in ``margins`` ({index: how far its pieces may stray from its probes}),
+    animated bodies in ``margins`` ({index: how far its pieces may stray from each of its
+    probes, (probes,)}),
     for the frames' camera states ``cameras`` under each light-speed mode of
     ``infinite_modes`` (True: infinite), ``max_depth`` mirror bounces and ``shutter``
-    (as ``visibility_windows`` takes them)."""
-    bodies, owners, counts = [], [], {}
+    (as ``visibility_windows`` takes them).
+
+    With lights, a chunk is reached when its stand-in is seen directly or through mirrors
+    (the windows without lights), or when the windows with lights reach it and so does
+    ``shadow_reach``'s bound where it holds (finite light speed)."""
+    bodies, owners, balls, chunk_balls, counts = [], [], [], [], {}
     for i, body in enumerate(scene.bodies):
         if i not in margins:
             bodies.append(body)
             owners.append(None)
             continue
-        stand_ins, counts[i] = _stand_ins(body, margins[i])
+        stand_ins, own, counts[i] = _stand_ins(body, margins[i])
         bodies.extend(stand_ins)
+        balls.append(own)
+        chunk_balls.append(own[:counts[i]])
         owners.extend([(i, q) for q in range(counts[i])] + [None, None])
     stand_in_scene = dataclasses.replace(scene, bodies=tuple(bodies))
     cameras = list(cameras)
+    ends = cameras + [c.advanced(shutter) for c in cameras if shutter > 0.0]
     # Every event on a path of light that ends at a camera event (a hit, a mirror's, a
     # shadow ray's occluder) is no later than it: nothing after the last camera event counts.
-    latest = max([c.time for c in cameras] + [c.advanced(shutter).time for c in cameras if shutter > 0.0])
+    latest = max(c.time for c in ends)
+    shadows = None
+    if scene.lights and all(not np.any(scene.bodies[i].motion.hold_velocity) for i in margins):
+        shadows = static_shadow_scene(scene, set(margins), np.concatenate(balls), max_depth)
     out = {i: np.zeros(n, dtype=bool) for i, n in counts.items()}
     for infinite in sorted(set(infinite_modes)):
         windows = visibility_windows(stand_in_scene, cameras, infinite=infinite, max_depth=max_depth, shutter=shutter)
-        for owner, window in zip(owners, windows):
-            if owner is not None and window is not None and window[0][0] <= latest:
-                out[owner[0]][owner[1]] = True
+        chunks = [(k, o) for k, o in enumerate(owners) if o is not None]
+        if shadows is not None and not infinite:
+            direct = visibility_windows(dataclasses.replace(stand_in_scene, lights=()), cameras, infinite=False,
+                                        max_depth=max_depth, shutter=shutter)
+            earliest = earliest_shadow_times(shadows, scene.lights, np.concatenate(chunk_balls), ends)
+            for (k, _o), first in zip(chunks, earliest):
+                cast = intersection(windows[k], (first, latest)) if np.isfinite(first) else None
+                windows[k] = union(direct[k], cast)
+        for k, (i, q) in chunks:
+            if windows[k] is not None and windows[k][0][0] <= latest:
+                out[i][q] = True
     return out
