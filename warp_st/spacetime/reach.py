@@ -12,9 +12,10 @@ moving with the held velocity. Every body point the pieces hold at a chunk's tim
 inside its ball, so the visibility windows of those stand-ins (``visibility_windows``:
 the frames' past lightcones, mirror paths and shadow rays, with the other bodies of the
 scene as they are) hold every time at which any frame can see the body, or its shadow,
-or its reflection: a chunk whose stand-in has no window is not cut, nor one after the
-last camera event (light reaches a camera only from its past; the windows of a large body
-such as a floor reach past it, their ball holding the camera).
+or its reflection: a chunk whose stand-in has no window is not cut, nor one later than
+the frames' past lightcones (every event on a path of light to a camera is in its past
+lightcone; the shadow windows of a large body such as a floor reach past it, their ball
+holding the camera). ``shadow_reach`` tightens the shadows' lower bound where it holds.
 """
 from __future__ import annotations
 
@@ -120,24 +121,30 @@ def motion_reach(scene: Scene, margins: dict, *, cameras, infinite_modes=(False,
     stand_in_scene = dataclasses.replace(scene, bodies=tuple(bodies))
     cameras = list(cameras)
     ends = cameras + [c.advanced(shutter) for c in cameras if shutter > 0.0]
-    # Every event on a path of light that ends at a camera event (a hit, a mirror's, a
-    # shadow ray's occluder) is no later than it: nothing after the last camera event counts.
-    latest = max(c.time for c in ends)
+    chunk_balls = np.concatenate(chunk_balls)
+    # Every event on a path of light that ends at a camera event (t_c, c) (a hit, a
+    # mirror's, a shadow ray's occluder) is in its past lightcone, t <= t_c - |x - c| (at an
+    # infinite light speed, t <= t_c): a chunk's ball at rest no later than the latest
+    # t_c - |m - c| + rho of any frame.
+    times = np.array([c.time for c in ends])
+    gaps = np.linalg.norm(np.array([np.asarray(c.position, dtype=np.float64) for c in ends])[None]
+                          - chunk_balls[:, None, :3], axis=2)
+    latest = {False: (times[None] - gaps).max(axis=1) + chunk_balls[:, 3], True: np.full(len(chunk_balls), times.max())}
     shadows = None
     if scene.lights and all(not np.any(scene.bodies[i].motion.hold_velocity) for i in margins):
         shadows = static_shadow_scene(scene, set(margins), np.concatenate(balls), max_depth)
     out = {i: np.zeros(n, dtype=bool) for i, n in counts.items()}
+    chunks = [(k, o) for k, o in enumerate(owners) if o is not None]
     for infinite in sorted(set(infinite_modes)):
         windows = visibility_windows(stand_in_scene, cameras, infinite=infinite, max_depth=max_depth, shutter=shutter)
-        chunks = [(k, o) for k, o in enumerate(owners) if o is not None]
         if shadows is not None and not infinite:
             direct = visibility_windows(dataclasses.replace(stand_in_scene, lights=()), cameras, infinite=False,
                                         max_depth=max_depth, shutter=shutter)
-            earliest = earliest_shadow_times(shadows, scene.lights, np.concatenate(chunk_balls), ends)
-            for (k, _o), first in zip(chunks, earliest):
-                cast = intersection(windows[k], (first, latest)) if np.isfinite(first) else None
+            earliest = earliest_shadow_times(shadows, scene.lights, chunk_balls, ends)
+            for (k, _o), first, last in zip(chunks, earliest, latest[False]):
+                cast = intersection(windows[k], (first, last)) if np.isfinite(first) else None
                 windows[k] = union(direct[k], cast)
-        for k, (i, q) in chunks:
-            if windows[k] is not None and windows[k][0][0] <= latest:
+        for (k, (i, q)), last in zip(chunks, latest[infinite]):
+            if windows[k] is not None and windows[k][0][0] <= last:
                 out[i][q] = True
     return out
