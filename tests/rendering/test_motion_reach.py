@@ -32,9 +32,9 @@ def _unclipped(monkeypatch):
     monkeypatch.setattr(renderer_module, "motion_reach", lambda scene, margins, **_: {})
 
 
-def _images(scene, frames, width=W, height=H):
+def _images(scene, frames, width=W, height=H, **options):
     """(images per frame of one Renderer for ``frames``, its animated segment count)."""
-    r = Renderer(scene, frames=frames, width=width, height=height)
+    r = Renderer(scene, frames=frames, width=width, height=height, **options)
     return [r.render(f) for f in frames], r.describe()["animated_segments"]
 
 
@@ -57,6 +57,17 @@ def test_clipping_changes_no_image(name, monkeypatch):
     assert (alone[0].object_id > 0).sum() > 0.3 * W * H
     for a, b in zip(alone + seq, full_alone + full_seq):
         _assert_same(a, b)
+
+
+def test_clipping_changes_no_image_at_an_infinite_light_speed(monkeypatch):
+    """Rays are instantaneous: the reach is the frame's own time (and the shadows of it)."""
+    path = str(EXAMPLES / "spinning_rod.usda")
+    (clipped,), clipped_pieces = _images(warp_st.load(path), [70.0], light_speed="infinite")
+    _unclipped(monkeypatch)
+    (full,), full_pieces = _images(warp_st.load(path), [70.0], light_speed="infinite")
+    assert clipped_pieces < full_pieces
+    assert (full.object_id == 2).sum() > 20  # the rod is in view
+    _assert_same(clipped, full)
 
 
 def _long_orbit(tmp_path, end=1000.0):
