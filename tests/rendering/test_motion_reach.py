@@ -107,24 +107,13 @@ def test_a_single_frame_of_a_long_animation_cuts_few_pieces(tmp_path):
 
 def _shadow_stage(tmp_path):
     """A camera at (0, 1, 0) looking down -Z at the floor around (0, 0, -10); a cube 20
-    above that floor point moving slowly along +X and turning, lit from straight above. The cube's
+    above that floor point moving slowly along +X and turning, lit from straight above. Its
     shadow on the floor point is cast 30 before the frame (10 to the floor, 20 down to
     it), while the camera sees the cube itself about 21.5 before the frame: outside
-    the cube's direct reach (its radius 1, its chunks about 1.2 time units)."""
-    text = '''#usda 1.0
-(
-    upAxis = "Y"
-    startTimeCode = 0
-    endTimeCode = 100
-)
-def Camera "Cam"
-{
-    double3 xformOp:translate = (0, 1, 0)
-    float3 xformOp:rotateXYZ = (-6, 0, 0)
-    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
-    float focalLength = 24
-}
-def DistantLight "Sun"
+    the cube's direct reach (its radius 1.4 about its pivot, its chunks 5.5 time units)."""
+    camera = HEADER.replace("(0, 3, 14)", "(0, 1, 0)").replace("(-12, 0, 0)", "(-6, 0, 0)")
+    assert camera != HEADER
+    text = camera + '''def DistantLight "Sun"
 {
     float inputs:intensity = 2.5
     float3 xformOp:rotateXYZ = (-90, 0, 0)
