@@ -26,7 +26,7 @@ import numpy as np
 from warp_st.core.deform import surface_hull_points
 from warp_st.core.scene import Body, Scene, Surface
 from warp_st.spacetime.animation import body_radius, motion_chunks
-from warp_st.spacetime.shadow_reach import earliest_shadow_times, static_shadow_scene
+from warp_st.spacetime.shadow_reach import analytic_ball, earliest_shadow_times, static_shadow_scene
 from warp_st.spacetime.visibility import intersection, union, visibility_windows
 
 __all__ = ["motion_reach", "body_extent"]
@@ -45,17 +45,10 @@ def body_extent(body: Body) -> float:
         pts = surface_hull_points(s)
         if len(pts):
             out = max(out, float(np.linalg.norm(pts - pivot, axis=1).max()))
-        for shape, half in ((s.sphere, lambda q: q[0]), (s.quadric, _quadric_half)):
-            if shape is not None:
-                m = np.asarray(shape[-1], dtype=np.float64).reshape(4, 4)
-                out = max(out, float(np.linalg.norm(m[3, :3] - pivot) + np.linalg.norm(m[:3, :3], ord=2) * half(shape)))
+        ball = analytic_ball(s)
+        if ball is not None:
+            out = max(out, float(np.linalg.norm(ball[0] - pivot)) + ball[1])
     return out
-
-
-def _quadric_half(quadric) -> float:
-    """The largest distance of a quadric's points from its centre, in its own units."""
-    kind, _axis, radius, height = quadric[:4]
-    return radius + 0.5 * height if kind == "capsule" else float(np.hypot(radius, 0.5 * height))
 
 
 def _stand_in(body: Body, centre, radius: float, velocity, t_ref: float, lifetime) -> Body:

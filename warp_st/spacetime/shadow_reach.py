@@ -23,7 +23,23 @@ import numpy as np
 from warp_st.core.deform import deforming
 from warp_st.core.scene import Scene
 
-__all__ = ["static_shadow_scene", "earliest_shadow_times"]
+__all__ = ["analytic_ball", "static_shadow_scene", "earliest_shadow_times"]
+
+
+def analytic_ball(surface):
+    """(centre, radius) of a ball holding the analytic sphere or quadric ``surface``'s
+    triangles approximate (traced exactly, or re-tessellated finer, it reaches past its
+    points); None for a surface whose triangles are exact."""
+    shape = surface.sphere if surface.sphere is not None else surface.quadric
+    if shape is None:
+        return None
+    m = np.asarray(shape[-1], dtype=np.float64).reshape(4, 4)
+    if surface.sphere is not None:
+        half = float(surface.sphere[0])
+    else:
+        kind, _axis, radius, height = surface.quadric[:4]
+        half = radius + 0.5 * height if kind == "capsule" else float(np.hypot(radius, 0.5 * height))
+    return m[3, :3].copy(), float(np.linalg.norm(m[:3, :3], ord=2)) * half
 
 
 def static_shadow_scene(scene: Scene, animated: set, balls: np.ndarray, max_depth: int):
@@ -42,17 +58,11 @@ def static_shadow_scene(scene: Scene, animated: set, balls: np.ndarray, max_dept
         if body.motion is not None or deforming(body) or np.any(np.asarray(body.velocity) != 0.0):
             return None
         for s in body.surfaces:
-            shape = s.sphere if s.sphere is not None else s.quadric
-            if shape is None:
+            ball = analytic_ball(s)
+            if ball is None:
                 triangles.append(np.asarray(s.points, dtype=np.float64)[np.asarray(s.triangles, dtype=np.int64)])
-                continue
-            m = np.asarray(shape[-1], dtype=np.float64).reshape(4, 4)
-            if s.sphere is not None:
-                half = s.sphere[0]
             else:
-                kind, _axis, radius, height = s.quadric[:4]
-                half = radius + 0.5 * height if kind == "capsule" else float(np.hypot(radius, 0.5 * height))
-            shapes.append(np.array([[*m[3, :3], np.linalg.norm(m[:3, :3], ord=2) * half]]))
+                shapes.append(np.array([[*ball[0], ball[1]]]))
     tri = np.concatenate(triangles) if triangles else np.zeros((0, 3, 3))
     return tri, np.concatenate(shapes)
 
