@@ -151,3 +151,13 @@ def test_a_shadow_cast_outside_the_direct_reach_still_falls(tmp_path, monkeypatc
     assert (lit < 0.1 * lit.max()).sum() >= 4
     assert (full.object_id == 2).sum() == 0  # and not the cube itself (it is out of view)
     _assert_same(clipped, full)
+
+
+def test_clipped_cuts_find_their_cached_database():
+    """Cuts with gaps are equal keys of the scene's database cache: a second renderer of
+    the same frame builds nothing."""
+    scene = warp_st.load(str(EXAMPLES / "spinning_rod.usda"))
+    first = Renderer(scene, frames=[70.0], width=W, height=H)
+    assert any(not np.isfinite(row[2]) for _i, rows in first.animation for row in rows)  # a gap
+    second = Renderer(scene, frames=[70.0], width=W, height=H)
+    assert first.stats.database_built and not second.stats.database_built

@@ -138,7 +138,8 @@ def _body_cuts(body: Body, tol: np.ndarray, radius: float, keep=None) -> tuple[t
     exists from its start (<= its cut) and holds the orientation of the probe at its
     orientation time (its middle probe). ``keep``: per chunk (``motion_chunks``), whether
     to cut it (None: all); the chunks not cut get no pieces, one row each run of them with
-    a NaN orientation time (a gap: no body between the previous row's cut and its own).
+    an infinite orientation time (a gap: no body between the previous row's cut and its
+    own; not NaN, so that equal cuts are equal keys of ``database_cache``).
 
     Error bound of a piece [k, j] at each (densified) probe m it holds (module docstring):
     |o(t_m) - chord(t_m)| + R (|L_m - L_mid|_2 + s_m |A(v_chord) - A(v_m)|_F), s_m the
@@ -161,8 +162,8 @@ def _body_cuts(body: Body, tol: np.ndarray, radius: float, keep=None) -> tuple[t
     last = None  # (first index, cut index) of the previous chunk's last piece, global
     for q in range(len(chunks) - 1):
         if not keep[q]:
-            gap = (float(t_all[dense[q + 1]]),) * 2 + (np.nan,)
-            rows[-1:] = [gap] if np.isnan(rows[-1][2]) else [rows[-1], gap]
+            gap = (float(t_all[dense[q + 1]]),) * 2 + (np.inf,)
+            rows[-1:] = [gap] if np.isinf(rows[-1][2]) else [rows[-1], gap]
             last = None
             continue
         base = dense[q - 1] if q > 0 else dense[0]  # the arrays hold the chunk before too
@@ -215,7 +216,7 @@ def _body_cuts(body: Body, tol: np.ndarray, radius: float, keep=None) -> tuple[t
 def piece_count(cuts) -> int:
     """How many pieces ``_body_cuts``' rows ``cuts`` make: one per row after the first that
     is not a gap, and the two held ends."""
-    return sum(1 for row in cuts[1:] if not np.isnan(row[2])) + 2
+    return sum(1 for row in cuts[1:] if not np.isinf(row[2])) + 2
 
 
 def animation_cuts(scene: Scene, cameras, *, width: int, height: int, pixels: float = 0.5, reach=None) -> tuple:
@@ -258,7 +259,7 @@ def piece_bodies(body: Body, cuts: tuple[tuple[float, float, float], ...]) -> li
     exists from its start, holds the orientation at its orientation time), held after the
     last; cut to the body's lifetime.
 
-    A row with a NaN orientation time is a gap (``_body_cuts``' chunks the frames cannot
+    A row with an infinite orientation time is a gap (``_body_cuts``' chunks the frames cannot
     reach): no piece from the previous row's cut to its own.
 
     Proper time: a coupled piece's reference event is put on its worldline where the
@@ -268,7 +269,7 @@ def piece_bodies(body: Body, cuts: tuple[tuple[float, float, float], ...]) -> li
     m = body.motion
     rows = np.array(cuts, dtype=np.float64).reshape(-1, 3)
     times = rows[:, 0]
-    gap = np.isnan(rows[1:, 2])
+    gap = np.isinf(rows[1:, 2])
     p, _ = m.at(times)
     _, mid = m.at(np.where(gap, times[1:], rows[1:, 2]))
     spans = [(-np.inf, times[0], times[0], p[0], m.hold_velocity, m.linear[0])]
