@@ -129,14 +129,19 @@ def motion_reach(scene: Scene, margins: dict, *, cameras, infinite_modes=(False,
     out = {i: np.zeros(n, dtype=bool) for i, n in counts.items()}
     chunks = [(k, o) for k, o in enumerate(owners) if o is not None]
     for infinite in sorted(set(infinite_modes)):
-        windows = visibility_windows(stand_in_scene, cameras, infinite=infinite, max_depth=max_depth, shutter=shutter)
         if shadows is not None and not infinite:
-            direct = visibility_windows(dataclasses.replace(stand_in_scene, lights=()), cameras, infinite=False,
-                                        max_depth=max_depth, shutter=shutter)
+            # seen directly or through mirrors (the windows without lights), or casting a
+            # shadow within shadow_reach's bound (standing alone: visibility's shadow
+            # widening per frame costs seconds for a hundred frames, and is looser here)
+            windows = visibility_windows(dataclasses.replace(stand_in_scene, lights=()), cameras, infinite=False,
+                                         max_depth=max_depth, shutter=shutter)
             earliest = earliest_shadow_times(shadows, scene.lights, chunk_balls, ends)
             for (k, _o), first, last in zip(chunks, earliest, latest[False]):
-                cast = intersection(windows[k], (first, last)) if np.isfinite(first) else None
-                windows[k] = union(direct[k], cast)
+                if np.isfinite(first):
+                    windows[k] = union(windows[k], intersection((first, last), bodies[k].lifetime))
+        else:
+            windows = visibility_windows(stand_in_scene, cameras, infinite=infinite, max_depth=max_depth,
+                                         shutter=shutter)
         for (k, (i, q)), last in zip(chunks, latest[infinite]):
             if windows[k] is not None and windows[k][0][0] <= last:
                 out[i][q] = True
