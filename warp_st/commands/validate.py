@@ -81,9 +81,9 @@ def _animation_problems(scene, label: str) -> list:
     segments it renders as through the scene's camera at its resolution, over the
     stage's time codes (at most 101 frames of them, evenly spread); and per animated
     light (§3.4): samples and speed range."""
-    import numpy as np
-
     import functools
+
+    import numpy as np
 
     from warp_st.core.conventions import DEFAULT_RESOLUTION, LightSpeed
     from warp_st.core.scene import SceneError

@@ -410,7 +410,7 @@ class Renderer:
             "primitive": self.primitive,
             "triangles": s.triangles,
             "motion_segments": s.segments,
-            "animated_segments": sum(piece_count(cuts) for _, cuts in self.animation),  # the pieces of the chunks the frames reach
+            "animated_segments": sum(piece_count(cuts) for _, cuts in self.animation),  # of the chunks reached
             "time_segments": ("motion segments (rigid)" if self.primitive == "rigid"
                               else f"sweep {self.sweep_fraction:g} x body size" if self.sweep_fraction is not None
                               else "per triangle" if self.fine_segments else "per body (memory)"),

@@ -17,6 +17,10 @@ greedily while that stays under the tolerance of every probe they hold: ``pixels
 smallest pixel angle x the nearest distance at which any camera can see the body near that
 probe (its pivot's distance minus R) / the camera's angular magnification (``adaptive``'s
 rule for spheres). Pieces overlap in time at their seams (``_body_cuts``).
+
+Clipping. The probes are grouped into chunks (``motion_chunks``), each cut from its own
+start, and only the chunks some frame can reach (``spacetime.reach``) are cut: the pieces
+of a chunk are the same whichever others are, so clipping changes no image.
 """
 from __future__ import annotations
 
