@@ -26,6 +26,21 @@ def Camera "Cam"
 '''
 
 
+#: A pure mirror (metallic 1, diffuse 1): bind </Chrome>.
+CHROME = '''def Material "Chrome"
+{
+    token outputs:surface.connect = </Chrome/Surface.outputs:surface>
+    def Shader "Surface"
+    {
+        uniform token info:id = "UsdPreviewSurface"
+        color3f inputs:diffuseColor = (1, 1, 1)
+        float inputs:metallic = 1
+        token outputs:surface
+    }
+}
+'''
+
+
 def orbit_degrees(speed: float, radius: float, duration: float) -> float:
     """The rotateY angle (degrees) after ``duration`` of a pivot at ``radius`` moving at ``speed``."""
     return float(np.degrees(speed / radius * duration))

@@ -7,8 +7,10 @@ Laws:
   start), so nothing is left to rounding;
 - a single frame of a long animation cuts a small part of the pieces the whole span
   would, and a frame at the end of it still sees the body;
-- a shadow the animated body casts from times outside its direct view still falls (the
-  reach holds the shadow rays' reach, not only the past lightcone's).
+- a shadow the animated body casts, and its reflection in a mirror, from times outside
+  its direct reach still render (the reach holds the shadow rays' and mirror paths'
+  reach, not only the past lightcone's);
+- cuts with gaps are equal keys of the database cache.
 """
 from pathlib import Path
 
@@ -20,7 +22,7 @@ from warp_st.rendering import renderer as renderer_module
 from warp_st.rendering.renderer import Renderer
 from warp_st.spacetime.animation import animation_cuts, piece_count
 
-from animation_stages import CUBE, HEADER, orbit_degrees, write
+from animation_stages import CHROME, CUBE, HEADER, orbit_degrees, write
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "animation"
 W, H = 48, 27
@@ -36,6 +38,15 @@ def _images(scene, frames, width=W, height=H, **options):
     """(images per frame of one Renderer for ``frames``, its animated segment count)."""
     r = Renderer(scene, frames=frames, width=width, height=height, **options)
     return [r.render(f) for f in frames], r.describe()["animated_segments"]
+
+
+def _clipped_and_full(path, monkeypatch, frame=60.0, width=64, height=48, **options):
+    """The image of ``frame`` clipped and unclipped (the clipping having dropped pieces)."""
+    (clipped,), clipped_pieces = _images(warp_st.load(path), [frame], width, height, **options)
+    _unclipped(monkeypatch)
+    (full,), full_pieces = _images(warp_st.load(path), [frame], width, height, **options)
+    assert clipped_pieces < full_pieces
+    return clipped, full
 
 
 def _assert_same(a, b):
@@ -61,11 +72,8 @@ def test_clipping_changes_no_image(name, monkeypatch):
 
 def test_clipping_changes_no_image_at_an_infinite_light_speed(monkeypatch):
     """Rays are instantaneous: the reach is the frame's own time (and the shadows of it)."""
-    path = str(EXAMPLES / "spinning_rod.usda")
-    (clipped,), clipped_pieces = _images(warp_st.load(path), [70.0], light_speed="infinite")
-    _unclipped(monkeypatch)
-    (full,), full_pieces = _images(warp_st.load(path), [70.0], light_speed="infinite")
-    assert clipped_pieces < full_pieces
+    clipped, full = _clipped_and_full(str(EXAMPLES / "spinning_rod.usda"), monkeypatch, 70.0, W, H,
+                                      light_speed="infinite")
     assert (full.object_id == 2).sum() > 20  # the rod is in view
     _assert_same(clipped, full)
 
@@ -105,6 +113,22 @@ def test_a_single_frame_of_a_long_animation_cuts_few_pieces(tmp_path):
     assert (image.object_id == 1).sum() > 10  # the cube, seen at the end of its motion
 
 
+def _turning_box(start, end) -> str:
+    """/Box, a cube of edge 1.6 moving from ``start`` (time code 0) to ``end`` (100) while it
+    turns 1000 degrees about +Y (many pieces)."""
+    return f'''def Xform "Box" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{{
+    double3 xformOp:translate.timeSamples = {{ 0: {start}, 100: {end} }}
+    double xformOp:rotateY.timeSamples = {{ 0: 0, 100: 1000 }}
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateY"]
+    def Cube "C"
+    {{
+        double size = 1.6
+    }}
+}}
+'''
+
+
 def _shadow_stage(tmp_path):
     """A camera at (0, 1, 0) looking down -Z at the floor around (0, 0, -10); a cube 20
     above that floor point moving slowly along +X and turning, lit from straight above. Its
@@ -125,26 +149,12 @@ def Mesh "Floor"
     int[] faceVertexCounts = [4]
     int[] faceVertexIndices = [0, 3, 2, 1]
 }
-def Xform "Box" (prepend apiSchemas = ["SpacetimeBodyAPI"])
-{
-    double3 xformOp:translate.timeSamples = { 0: (-3, 20, -10), 100: (3, 20, -10) }
-    double xformOp:rotateY.timeSamples = { 0: 0, 100: 1000 }
-    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateY"]
-    def Cube "C"
-    {
-        double size = 1.6
-    }
-}
-'''
+''' + _turning_box((-3, 20, -10), (3, 20, -10))
     return write(tmp_path, "shadow.usda", text)
 
 
 def test_a_shadow_cast_outside_the_direct_reach_still_falls(tmp_path, monkeypatch):
-    path = _shadow_stage(tmp_path)
-    (clipped,), clipped_pieces = _images(warp_st.load(path), [60.0], 64, 48)
-    _unclipped(monkeypatch)
-    (full,), full_pieces = _images(warp_st.load(path), [60.0], 64, 48)
-    assert clipped_pieces < full_pieces
+    clipped, full = _clipped_and_full(_shadow_stage(tmp_path), monkeypatch)
     floor = full.object_id == 1
     lit = full.rgba[..., 0][floor]
     # the unclipped image has the shadow: floor pixels far darker than the lit floor
@@ -161,3 +171,34 @@ def test_clipped_cuts_find_their_cached_database():
     assert any(not np.isfinite(row[2]) for _i, rows in first.animation for row in rows)  # a gap
     second = Renderer(scene, frames=[70.0], width=W, height=H)
     assert first.stats.database_built and not second.stats.database_built
+
+
+def _mirror_stage(tmp_path):
+    """The camera of ``_shadow_stage`` looking down -Z at a mirror 10 ahead; a turning cube
+    4 behind the camera, lit by a distant light. The camera sees the cube in the mirror
+    as it was 24 before the frame (10 there, 14 back), directly 4 before: outside the
+    cube's direct reach (its radius 1.4, its chunks 5.5 time units)."""
+    camera = HEADER.replace("(0, 3, 14)", "(0, 1, 0)").replace("(-12, 0, 0)", "(0, 0, 0)")
+    text = camera + '''def DistantLight "Sun"
+{
+    float inputs:intensity = 2.5
+    float3 xformOp:rotateXYZ = (-50, 20, 0)
+    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
+}
+''' + CHROME + '''def Mesh "Mirror" (prepend apiSchemas = ["MaterialBindingAPI"])
+{
+    point3f[] points = [(-4, -2, -10), (4, -2, -10), (4, 4, -10), (-4, 4, -10)]
+    int[] faceVertexCounts = [4]
+    int[] faceVertexIndices = [0, 1, 2, 3]
+    rel material:binding = </Chrome>
+}
+''' + _turning_box((-1, 1, 4), (1, 1, 4))
+    return write(tmp_path, "mirror.usda", text)
+
+
+def test_a_reflection_from_outside_the_direct_reach_still_shows(tmp_path, monkeypatch):
+    clipped, full = _clipped_and_full(_mirror_stage(tmp_path), monkeypatch)
+    # the cube in the mirror: pixels whose last non-mirror event is about 24 before the frame
+    reflected = (full.bounces > 0) & (np.abs(full.source_time - 36.0) < 2.5)
+    assert reflected.sum() >= 4
+    _assert_same(clipped, full)

@@ -31,7 +31,7 @@ from warp_st.core import lorentz
 from warp_st.core.scene import SceneError
 from warp_st.rendering.camera import pixel_directions
 
-from animation_stages import HEADER, hit_events, orbit_degrees, write
+from animation_stages import CHROME, HEADER, hit_events, orbit_degrees, write
 
 W, H = 96, 72
 RADIUS, RIM = 2.0, 0.6
@@ -130,18 +130,7 @@ def _turning_mirror() -> str:
 {{
     float inputs:intensity = 1
 }}
-def Material "Chrome"
-{{
-    token outputs:surface.connect = </Chrome/Surface.outputs:surface>
-    def Shader "Surface"
-    {{
-        uniform token info:id = "UsdPreviewSurface"
-        color3f inputs:diffuseColor = (1, 1, 1)
-        float inputs:metallic = 1
-        token outputs:surface
-    }}
-}}
-def Xform "Plate" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{CHROME}def Xform "Plate" (prepend apiSchemas = ["SpacetimeBodyAPI"])
 {{
     double xformOp:rotateY.timeSamples = {{ 0: {a0!r}, 100: {a1!r} }}
     uniform token[] xformOpOrder = ["xformOp:rotateY"]
