@@ -91,15 +91,15 @@ def _stand_ins(body: Body, margin: np.ndarray) -> tuple[list[Body], np.ndarray, 
 def motion_reach(scene: Scene, margins: dict, *, cameras, infinite_modes=(False,), max_depth: int = 0,
                  shutter: float = 0.0) -> dict:
     """{body index: (chunks,) bool, the chunks of its motion some frame can reach} for the
-    animated bodies in ``margins`` ({index: how far its pieces may stray from each of its
-    probes, (probes,)}),
-    for the frames' camera states ``cameras`` under each light-speed mode of
-    ``infinite_modes`` (True: infinite), ``max_depth`` mirror bounces and ``shutter``
-    (as ``visibility_windows`` takes them).
+    animated bodies in ``margins`` ({index: (probes,), how far its pieces may stray from
+    each probe}), for the frames' camera states ``cameras`` under each light-speed mode of
+    ``infinite_modes`` (True: infinite), ``max_depth`` mirror bounces and ``shutter`` (as
+    ``visibility_windows`` takes them).
 
-    With lights, a chunk is reached when its stand-in is seen directly or through mirrors
-    (the windows without lights), or when the windows with lights reach it and so does
-    ``shadow_reach``'s bound where it holds (finite light speed)."""
+    Where ``shadow_reach``'s bound holds (finite light speed), a chunk is reached when its
+    stand-in is seen directly or through mirrors (the windows without lights) or that
+    bound lets it cast a shadow; elsewhere when the windows with lights reach it. Either
+    way no later than the frames' past lightcones."""
     bodies, owners, balls, chunk_balls, counts = [], [], [], [], {}
     for i, body in enumerate(scene.bodies):
         if i not in margins:
