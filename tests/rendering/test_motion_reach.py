@@ -129,7 +129,25 @@ def _turning_box(start, end) -> str:
 '''
 
 
-def _shadow_stage(tmp_path):
+#: Straight above the floor point (0, 0, -10): a distant light (spacetime/shadow_reach.py's
+#: bound) and a point-like sphere light 40 up (visibility_windows' shadow bound).
+LIGHTS = {"distant": '''def DistantLight "Sun"
+{
+    float inputs:intensity = 2.5
+    float3 xformOp:rotateXYZ = (-90, 0, 0)
+    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
+}
+''', "sphere": '''def SphereLight "Lamp"
+{
+    float inputs:radius = 0.5
+    float inputs:intensity = 4000
+    double3 xformOp:translate = (0, 40, -10)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+}
+'''}
+
+
+def _shadow_stage(tmp_path, light="distant"):
     """A camera at (0, 1, 0) looking down -Z at the floor around (0, 0, -10); a cube 20
     above that floor point moving slowly along +X and turning, lit from straight above. Its
     shadow on the floor point is cast 30 before the frame (10 to the floor, 20 down to
@@ -137,13 +155,7 @@ def _shadow_stage(tmp_path):
     the cube's direct reach (its radius 1.4 about its pivot, its chunks 5.5 time units)."""
     camera = HEADER.replace("(0, 3, 14)", "(0, 1, 0)").replace("(-12, 0, 0)", "(-6, 0, 0)")
     assert camera != HEADER
-    text = camera + '''def DistantLight "Sun"
-{
-    float inputs:intensity = 2.5
-    float3 xformOp:rotateXYZ = (-90, 0, 0)
-    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
-}
-def Mesh "Floor"
+    text = camera + LIGHTS[light] + '''def Mesh "Floor"
 {
     point3f[] points = [(-8, 0, -16), (8, 0, -16), (8, 0, -4), (-8, 0, -4)]
     int[] faceVertexCounts = [4]
@@ -153,8 +165,9 @@ def Mesh "Floor"
     return write(tmp_path, "shadow.usda", text)
 
 
-def test_a_shadow_cast_outside_the_direct_reach_still_falls(tmp_path, monkeypatch):
-    clipped, full = _clipped_and_full(_shadow_stage(tmp_path), monkeypatch)
+@pytest.mark.parametrize("light", sorted(LIGHTS))
+def test_a_shadow_cast_outside_the_direct_reach_still_falls(tmp_path, monkeypatch, light):
+    clipped, full = _clipped_and_full(_shadow_stage(tmp_path, light), monkeypatch)
     floor = full.object_id == 1
     lit = full.rgba[..., 0][floor]
     # the unclipped image has the shadow: floor pixels far darker than the lit floor
