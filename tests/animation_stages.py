@@ -45,12 +45,8 @@ def Camera "Cam"
 '''
 
 
-#: A uniform white dome (radiance 1) and /Chrome, a pure mirror material (metallic 1, diffuse 1).
-CHROME_DOME = '''def DomeLight "Sky"
-{
-    float inputs:intensity = 1
-}
-def Material "Chrome"
+#: A pure mirror (metallic 1, diffuse 1): bind </Chrome>.
+CHROME = '''def Material "Chrome"
 {
     token outputs:surface.connect = </Chrome/Surface.outputs:surface>
     def Shader "Surface"
@@ -62,6 +58,13 @@ def Material "Chrome"
     }
 }
 '''
+
+#: A uniform white dome (radiance 1) and /Chrome.
+CHROME_DOME = '''def DomeLight "Sky"
+{
+    float inputs:intensity = 1
+}
+''' + CHROME
 
 
 def orbit_degrees(speed: float, radius: float, duration: float) -> float:

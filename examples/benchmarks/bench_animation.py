@@ -52,7 +52,7 @@ def parse_args(argv=None):
 def render_at(scene, frames, width, height, pixels):
     """(pieces, seconds, images) of ``frames`` with the pieces within ``pixels`` pixels."""
     from warp_st.rendering import renderer as renderer_module
-    from warp_st.spacetime.animation import animation_cuts
+    from warp_st.spacetime.animation import animation_cuts, piece_count
 
     renderer_module.animation_cuts = functools.partial(animation_cuts, pixels=pixels)
     try:
@@ -62,7 +62,7 @@ def render_at(scene, frames, width, height, pixels):
         seconds = time.perf_counter() - t0
     finally:
         renderer_module.animation_cuts = animation_cuts
-    pieces = sum(len(rows) + 1 for _i, rows in r.animation)
+    pieces = sum(piece_count(rows) for _i, rows in r.animation)
     return pieces, seconds, images
 
 

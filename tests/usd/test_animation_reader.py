@@ -165,7 +165,10 @@ def test_validate_lists_animated_bodies(tmp_path, capsys):
     import re
 
     from warp_st.core.conventions import DEFAULT_RESOLUTION
-    from warp_st.spacetime.animation import animation_cuts
+    import functools
+
+    from warp_st.spacetime.animation import animation_cuts, piece_count
+    from warp_st.spacetime.reach import motion_reach
 
     from animation_stages import spinning_rod
 
@@ -179,8 +182,13 @@ def test_validate_lists_animated_bodies(tmp_path, capsys):
     assert abs(float(match.group(1)) - 0.7 * np.sqrt(2.0 ** 2 + 0.2 ** 2 + 0.2 ** 2) / 2.0) <= 1e-3
     scene = warp_st.load(path)
     cameras = [scene.camera_state(None, float(f)) for f in np.linspace(0, 100, 101)]
-    (cuts,) = animation_cuts(scene, cameras, width=DEFAULT_RESOLUTION[0], height=DEFAULT_RESOLUTION[1])
-    assert int(match.group(2)) == len(cuts[1]) + 1
+    size = dict(width=DEFAULT_RESOLUTION[0], height=DEFAULT_RESOLUTION[1])
+    (cuts,) = animation_cuts(scene, cameras, reach=functools.partial(motion_reach, cameras=cameras, max_depth=4), **size)
+    assert int(match.group(2)) == piece_count(cuts[1])
+    # the rod is 14 from the camera and unlit: the frames see it until about t = 88, the
+    # chunks after that are not cut
+    (whole,) = animation_cuts(scene, cameras, **size)
+    assert piece_count(cuts[1]) < piece_count(whole[1]) == len(whole[1]) + 1
 
 
 def test_a_camera_time_sampled_in_place_is_at_rest(tmp_path):

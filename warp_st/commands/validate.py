@@ -81,11 +81,15 @@ def _animation_problems(scene, label: str) -> list:
     segments it renders as through the scene's camera at its resolution, over the
     stage's time codes (at most 101 frames of them, evenly spread); and per animated
     light (§3.4): samples and speed range."""
+    import functools
+
     import numpy as np
 
-    from warp_st.core.conventions import DEFAULT_RESOLUTION
+    from warp_st.core.conventions import DEFAULT_RESOLUTION, LightSpeed
     from warp_st.core.scene import SceneError
+    from warp_st.rendering.renderer import DEFAULT_MAX_DEPTH
     from warp_st.spacetime.animation import animation_report
+    from warp_st.spacetime.reach import motion_reach
     from warp_st.usd.light_motion import light_report
     from warp_st.usd.validators import Problem
 
@@ -98,5 +102,9 @@ def _animation_problems(scene, label: str) -> list:
         cameras = [scene.camera_state(None, float(f)) for f in np.linspace(start, end, min(101, int(end - start) + 1))]
     except SceneError:  # listed as the camera's own error
         cameras = []
+    # the chunks of the motion those frames reach (spacetime/reach.py), as the renderer cuts them
+    reach = functools.partial(motion_reach, cameras=cameras, max_depth=DEFAULT_MAX_DEPTH if scene.settings.max_depth
+                              is None else int(scene.settings.max_depth),
+                              infinite_modes=[LightSpeed(c.light_speed) == LightSpeed.INFINITE for c in cameras])
     return [Problem("info", label, path, None, text, "animation")
-            for path, text in animation_report(scene, cameras, width=width, height=height)] + lights
+            for path, text in animation_report(scene, cameras, width=width, height=height, reach=reach)] + lights

@@ -11,6 +11,7 @@ so the tiles use every core) and returns a :class:`~warp_st.output.film.Image`.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 import time
@@ -31,9 +32,10 @@ from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limit
 from warp_st.rendering.tile_pool import tile_pool
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
-from warp_st.spacetime.animation import animated_bodies, animation_cuts
+from warp_st.spacetime.animation import animated_bodies, animation_cuts, piece_count
 from warp_st.spacetime.deform import deform_primitive, deforming, slice_view
 from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
+from warp_st.spacetime.reach import motion_reach
 from warp_st.spacetime.rigid import all_exact_quadrics, quadric_body
 from warp_st.spacetime.visibility import union, visibility_windows
 
@@ -273,7 +275,10 @@ class Renderer:
         cache = database_cache.for_scene(self.scene)
         scene = self.scene
         # Animated bodies (docs/spec.md §2.1): pieces of uniform motion within half a pixel in every frame.
-        self.animation = animation_cuts(self.scene, ends, width=self.width, height=self.height)
+        # Only the chunks of their motion some frame can reach (spacetime/reach.py) are cut.
+        reach = functools.partial(motion_reach, cameras=cams, infinite_modes=[m == LightSpeed.INFINITE for m in modes],
+                                  max_depth=self.max_depth, shutter=shutter)
+        self.animation = animation_cuts(self.scene, ends, width=self.width, height=self.height, reach=reach)
         self.object_of = None  # the scene body of each rendered body (None: the same)
         if self.animation:  # the cache holds the bodies only: an entry must not keep its scene alive
             bodies, self.object_of = cache.tessellated(("animation", self.animation),
@@ -410,7 +415,7 @@ class Renderer:
             "primitive": self.primitive,
             "triangles": s.triangles,
             "motion_segments": s.segments,
-            "animated_segments": sum(len(cuts) + 1 for _, cuts in self.animation),  # pieces before clipping
+            "animated_segments": sum(piece_count(cuts) for _, cuts in self.animation),  # of the chunks reached
             "time_segments": ("motion segments (rigid)" if self.primitive == "rigid"
                               else f"sweep {self.sweep_fraction:g} x body size" if self.sweep_fraction is not None
                               else "per triangle" if self.fine_segments else "per body (memory)"),

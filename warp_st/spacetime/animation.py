@@ -17,6 +17,10 @@ greedily while that stays under the tolerance of every probe they hold: ``pixels
 smallest pixel angle x the nearest distance at which any camera can see the body near that
 probe (its pivot's distance minus R) / the camera's angular magnification (``adaptive``'s
 rule for spheres). Pieces overlap in time at their seams (``_body_cuts``).
+
+Clipping. The probes are grouped into chunks (``motion_chunks``), each cut from its own
+start, and only the chunks some frame can reach (``spacetime.reach``) are cut: the pieces
+of a chunk are the same whichever others are, so clipping changes no image.
 """
 from __future__ import annotations
 
@@ -29,7 +33,8 @@ from warp_st.core.motion import velocity_gradient
 from warp_st.core.scene import Body, Scene
 from warp_st.spacetime.adaptive import _camera_stretch, min_pixel_angle
 
-__all__ = ["animation_cuts", "animated_bodies", "piece_bodies", "body_radius", "FLOOR_FRACTION"]
+__all__ = ["animation_cuts", "animated_bodies", "piece_bodies", "piece_count", "body_radius", "motion_chunks",
+           "FLOOR_FRACTION"]
 
 #: Where no bound applies (a camera inside the body's reach, a decoupled body at >= c) the
 #: tolerance is this fraction of the body's radius about its pivot.
@@ -83,11 +88,11 @@ def _dense_times(body: Body, tol: np.ndarray, radius: float) -> tuple[np.ndarray
     times = [m.times[:1]]
     tols = [tol[:1]]
     for k, n in enumerate(parts):
-        times.append(m.times[k] + (m.times[k + 1] - m.times[k]) * np.arange(1, n + 1) / n)
+        part = m.times[k] + (m.times[k + 1] - m.times[k]) * np.arange(1, n + 1) / n
+        part[-1] = m.times[k + 1]  # the probes' own times stay among them (``_body_cuts``' chunks)
+        times.append(part)
         tols.append(np.full(n, t_tol[k]))
-    times, tols = np.concatenate(times), np.concatenate(tols)
-    times[-1] = m.times[-1]
-    return times, tols
+    return np.concatenate(times), np.concatenate(tols)
 
 
 #: Most parts one probe interval is split into for the cutting (a tolerance far below the
@@ -95,11 +100,50 @@ def _dense_times(body: Body, tol: np.ndarray, radius: float) -> tuple[np.ndarray
 MAX_PARTS = 64
 
 
-def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[tuple[float, float, float], ...]:
+#: Most chunks a body's probes are grouped into, and the longest chunk in lab time in
+#: units of the body's radius R about its pivot (``motion_chunks``).
+MAX_CHUNKS = 256
+CHUNK_RADII = 4.0
+
+
+def motion_chunks(body: Body, radius: float) -> np.ndarray:
+    """Indices of the probes that bound ``body``'s chunks, increasing from 0 to the last:
+    consecutive probe intervals grouped while a chunk lasts at most max(CHUNK_RADII x R, the
+    probes' span / MAX_CHUNKS) (one interval at least). The cutting restarts at every
+    chunk's start and a chunk is cut only where the frames can reach it
+    (``spacetime.reach``): a chunk's pieces do not depend on which other chunks are cut.
+    A frame reaches a body over about its light-crossing time 2 R at least, so chunks of a
+    few R lose little of the clipping; each restart costs at most one piece."""
+    t = body.motion.times
+    length = max(CHUNK_RADII * radius, (t[-1] - t[0]) / MAX_CHUNKS)
+    bounds, first = [0], t[0]
+    for k in range(1, len(t) - 1):
+        if t[k + 1] - first > length:
+            bounds.append(k)
+            first = t[k]
+    bounds.append(len(t) - 1)
+    return np.array(bounds, dtype=np.int64)
+
+
+def _cut_arrays(body: Body, t: np.ndarray):
+    """What ``_body_cuts``' error bound reads at the dense times ``t``."""
+    p, lin = body.motion.at(t)
+    turn = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(lin, axis=0), ord=2, axis=(1, 2)))])
+    scale = np.linalg.norm(lin, ord=2, axis=(1, 2))
+    vel = np.diff(p, axis=0) / np.diff(t)[:, None]
+    # The contraction changes only where the pivot's velocity does (never at rest or uniform).
+    moving = not body.decoupled and bool(np.ptp(vel, axis=0).max() > 0.0)
+    return p, turn, scale, _contractions(vel, body.decoupled), moving
+
+
+def _body_cuts(body: Body, tol: np.ndarray, radius: float, keep=None) -> tuple[tuple[float, float, float], ...]:
     """(cut time, start time, orientation time) per piece of ``body`` (the first row only
     opens the first piece): a piece moves along the chord between its cut and the next,
     exists from its start (<= its cut) and holds the orientation of the probe at its
-    orientation time (its middle probe).
+    orientation time (its middle probe). ``keep``: per chunk (``motion_chunks``), whether
+    to cut it (None: all); the chunks not cut get no pieces, one row each run of them with
+    an infinite orientation time (a gap: no body between the previous row's cut and its
+    own; not NaN, so that equal cuts are equal keys of ``database_cache``).
 
     Error bound of a piece [k, j] at each (densified) probe m it holds (module docstring):
     |o(t_m) - chord(t_m)| + R (|L_m - L_mid|_2 + s_m |A(v_chord) - A(v_m)|_F), s_m the
@@ -108,75 +152,92 @@ def _body_cuts(body: Body, tol: np.ndarray, radius: float) -> tuple[tuple[float,
     tolerance, then each is extended back in time over its predecessor while it stays within
     the whole tolerance: where two pieces' surfaces differ at a seam, a ray crossing the seam
     between them would otherwise enter the earlier one through its cap (no surface) and see
-    its far side; in the overlap it meets the later one's surface first."""
-    t, tol = _dense_times(body, 0.5 * tol, radius)
-    tol = 2.0 * tol
-    p, lin = body.motion.at(t)
-    turn = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(lin, axis=0), ord=2, axis=(1, 2)))])
-    scale = np.linalg.norm(lin, ord=2, axis=(1, 2))
-    vel = np.diff(p, axis=0) / np.diff(t)[:, None]
-    a = _contractions(vel, body.decoupled)
-    # The contraction changes only where the pivot's velocity does (never at rest or uniform).
-    moving = not body.decoupled and bool(np.ptp(vel, axis=0).max() > 0.0)
+    its far side; in the overlap it meets the later one's surface first. Each chunk is
+    cut from its own start, its bound read from arrays over it and the chunk before (the
+    extension back), so a chunk's rows are the same whichever chunks are kept."""
+    t_all, tol_all = _dense_times(body, 0.5 * tol, radius)
+    tol_all = 2.0 * tol_all
+    chunks = motion_chunks(body, radius)
+    # dense index of each probe: the probe times are among the dense times
+    dense = np.searchsorted(t_all, body.motion.times[chunks])
+    dense[-1] = len(t_all) - 1
+    keep = np.ones(len(chunks) - 1, dtype=bool) if keep is None else np.asarray(keep, dtype=bool)
+    rows = [(float(t_all[0]),) * 3]
+    last = None  # (first index, cut index) of the previous chunk's last piece, global
+    for q in range(len(chunks) - 1):
+        if not keep[q]:
+            gap = (float(t_all[dense[q + 1]]),) * 2 + (np.inf,)
+            rows[-1:] = [gap] if np.isinf(rows[-1][2]) else [rows[-1], gap]
+            last = None
+            continue
+        base = dense[q - 1] if q > 0 else dense[0]  # the arrays hold the chunk before too
+        t, tol = t_all[base:dense[q + 1] + 1], tol_all[base:dense[q + 1] + 1]
+        p, turn, scale, a, moving = _cut_arrays(body, t)
 
-    def errors(k: int, j: int, lo: int, hi: int) -> np.ndarray:
-        """Bound per probe in [lo, hi] of the piece [k, j] (lo <= k < j; hi <= j)."""
-        c = (k + j) // 2
-        v = (p[j] - p[k]) / (t[j] - t[k])
-        dev = np.linalg.norm(p[lo:hi + 1] - (p[k] + v * (t[lo:hi + 1] - t[k])[:, None]), axis=1)
-        rot = np.abs(turn[lo:hi + 1] - turn[c])
-        if moving:  # the contraction of either interval in [lo, hi] the probe ends
-            da = np.linalg.norm(a[lo:hi] - contraction_matrix(v, False), axis=(1, 2))
-            probes = np.arange(hi - lo + 1)
-            left, right = np.maximum(probes - 1, 0), np.minimum(probes, hi - lo - 1)
-            rot = rot + scale[lo:hi + 1] * np.maximum(da[left], da[right])
-        return dev + radius * rot
+        def errors(k: int, j: int, lo: int, hi: int) -> np.ndarray:
+            """Bound per probe in [lo, hi] of the piece [k, j] (lo <= k < j; hi <= j)."""
+            c = (k + j) // 2
+            v = (p[j] - p[k]) / (t[j] - t[k])
+            dev = np.linalg.norm(p[lo:hi + 1] - (p[k] + v * (t[lo:hi + 1] - t[k])[:, None]), axis=1)
+            rot = np.abs(turn[lo:hi + 1] - turn[c])
+            if moving:  # the contraction of either interval in [lo, hi] the probe ends
+                da = np.linalg.norm(a[lo:hi] - contraction_matrix(v, False), axis=(1, 2))
+                probes = np.arange(hi - lo + 1)
+                left, right = np.maximum(probes - 1, 0), np.minimum(probes, hi - lo - 1)
+                rot = rot + scale[lo:hi + 1] * np.maximum(da[left], da[right])
+            return dev + radius * rot
 
-    n = len(t)
-    cuts = [0]
-    k = 0
-    while k < n - 1:
-        def fits(j):
-            return bool((errors(k, j, k, j) <= 0.5 * tol[k:j + 1]).all())
-        lo, step = k + 1, 1  # lo always fits (a single part is the finest piece)
-        while lo + step <= n - 1 and fits(lo + step):
-            lo += step
-            step *= 2
-        hi = min(lo + step, n)  # first known not to fit (or past the end)
-        while hi - lo > 1:
-            mid = (lo + hi) // 2
-            if fits(mid):
-                lo = mid
-            else:
-                hi = mid
-        cuts.append(lo)
-        k = lo
-    rows = [(float(t[0]), float(t[0]), float(t[0]))]
-    for q in range(1, len(cuts)):
-        k, j = cuts[q - 1], cuts[q]
-        start = k
-        if q > 1:  # extend back over the previous piece while within the whole tolerance
-            prev = cuts[q - 2]
-            bad = np.nonzero(errors(k, j, prev, k) > tol[prev:k + 1])[0]
-            start = min(prev + (int(bad[-1]) + 1 if bad.size else 0), k)
-        rows.append((float(t[j]), float(t[start]), float(t[(k + j) // 2])))
+        n = len(t)
+        k = dense[q] - base
+        cuts = [k]
+        while k < n - 1:
+            def fits(j):
+                return bool((errors(k, j, k, j) <= 0.5 * tol[k:j + 1]).all())
+            lo, step = k + 1, 1  # lo always fits (a single part is the finest piece)
+            while lo + step <= n - 1 and fits(lo + step):
+                lo += step
+                step *= 2
+            hi = min(lo + step, n)  # first known not to fit (or past the end)
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                if fits(mid):
+                    lo = mid
+                else:
+                    hi = mid
+            cuts.append(lo)
+            k = lo
+        prevs = [None if last is None else last[0] - base] + cuts[:-2]
+        for prev, k, j in zip(prevs, cuts[:-1], cuts[1:]):
+            start = k
+            if prev is not None:  # extend back over the previous piece while within the whole tolerance
+                bad = np.nonzero(errors(k, j, prev, k) > tol[prev:k + 1])[0]
+                start = min(prev + (int(bad[-1]) + 1 if bad.size else 0), k)
+            rows.append((float(t[j]), float(t[start]), float(t[(k + j) // 2])))
+        last = (cuts[-2] + base, cuts[-1] + base)
     return tuple(rows)
 
 
-def animation_cuts(scene: Scene, cameras, *, width: int, height: int, pixels: float = 0.5) -> tuple:
+def piece_count(cuts) -> int:
+    """How many pieces ``_body_cuts``' rows ``cuts`` make: one per row after the first that
+    is not a gap, and the two held ends."""
+    return sum(1 for row in cuts[1:] if not np.isinf(row[2])) + 2
+
+
+def animation_cuts(scene: Scene, cameras, *, width: int, height: int, pixels: float = 0.5, reach=None) -> tuple:
     """((body index, cut times), ...) for every animated body of ``scene`` (empty: none),
-    the pieces within ``pixels`` pixels for every camera state of ``cameras``."""
+    the pieces within ``pixels`` pixels for every camera state of ``cameras``. ``reach``:
+    ``reach(scene, margins) -> {body index: per chunk, whether the frames reach it}``
+    (``spacetime.reach.motion_reach``; margins: per body index, how far its pieces may
+    stray from each of its probes); None: every chunk is cut."""
     cameras = list(cameras)
     animated = [i for i, b in enumerate(scene.bodies) if b.motion is not None and b.surfaces]
     if not animated:
         return ()
     angle = min((min_pixel_angle(c, width, height) for c in cameras), default=np.inf)
-    out = []
-    for i in animated:
-        body = scene.bodies[i]
-        radius = body_radius(body)
-        out.append((i, _body_cuts(body, _tolerances(body, radius, cameras, angle, pixels), radius)))
-    return tuple(out)
+    radii = {i: body_radius(scene.bodies[i]) for i in animated}
+    tols = {i: _tolerances(scene.bodies[i], radii[i], cameras, angle, pixels) for i in animated}
+    kept = reach(scene, tols) if reach is not None and cameras else {}
+    return tuple((i, _body_cuts(scene.bodies[i], tols[i], radii[i], kept.get(i))) for i in animated)
 
 
 def _moved(surface, linear: np.ndarray, shift: np.ndarray):
@@ -202,39 +263,38 @@ def piece_bodies(body: Body, cuts: tuple[tuple[float, float, float], ...]) -> li
     exists from its start, holds the orientation at its orientation time), held after the
     last; cut to the body's lifetime.
 
+    A row with an infinite orientation time is a gap (``_body_cuts``' chunks the frames cannot
+    reach): no piece from the previous row's cut to its own.
+
     Proper time: a coupled piece's reference event is put on its worldline where the
-    integral of dt / gamma from ``body.reference_time`` along the pieces would be 0, so
-    §2's tau = gamma ((t - t_ref) - v.(x - o)) continues that integral."""
+    integral of dt / gamma from ``body.reference_time`` along the probes (``_proper_times``)
+    would be 0, so §2's tau = gamma ((t - t_ref) - v.(x - o)) takes that integral's value
+    at the piece's anchor (the start of its chord), whichever pieces are cut."""
     m = body.motion
     rows = np.array(cuts, dtype=np.float64).reshape(-1, 3)
     times = rows[:, 0]
+    gap = np.isinf(rows[1:, 2])
     p, _ = m.at(times)
-    _, mid = m.at(rows[1:, 2])
+    _, mid = m.at(np.where(gap, times[1:], rows[1:, 2]))
     spans = [(-np.inf, times[0], times[0], p[0], m.hold_velocity, m.linear[0])]
-    for k in range(len(times) - 1):
+    spins = [None]
+    for k in np.nonzero(~gap)[0]:
         a, b = times[k], times[k + 1]
         spans.append((rows[k + 1, 1], b, a, p[k], (p[k + 1] - p[k]) / (b - a), mid[k]))
+        spins.append(_spin(m, rows[k + 1, 2], spans[-1][4], body.decoupled))
     spans.append((times[-1], np.inf, times[-1], p[-1], m.hold_velocity, m.linear[-1]))
-    spins = [None] + [_spin(m, t_o, spans[k + 1][4], body.decoupled) for k, t_o in enumerate(rows[1:, 2])] + [None]
+    spins.append(None)
     inv_gamma = [1.0 if body.decoupled else float(np.sqrt(max(1.0 - float(v @ v), 0.0))) for *_, v, _l in spans]
-    # F(t) = integral of dt / gamma from t[0]: at each span's anchor time (its start, the
-    # first span's end), then shifted so that F(t_ref) = 0.
-    anchor_f, f = [0.0], 0.0
-    for (_lo, hi, t_anchor, *_), g in zip(spans[1:], inv_gamma[1:]):
-        anchor_f.append(f)
-        if np.isfinite(hi):
-            f += (hi - t_anchor) * g  # over the piece's own span (not its overlap with the last)
     t_ref = body.reference_time
-    f_ref = next(((t_ref - s[2]) * g + f for q, (s, g, f) in enumerate(zip(spans, inv_gamma, anchor_f))
-                  if (s[0] if q == 0 else s[2]) <= t_ref <= s[1]), 0.0)
+    # proper time at each span's anchor (its chord's start, the first span's end)
+    taus = _proper_times(m, body.decoupled, [s[2] for s in spans]) - _proper_times(m, body.decoupled, [t_ref])[0]
     seams = _seams(spans, body_radius(body), body.decoupled)
     pieces = []
     life_lo, life_hi = body.lifetime
-    for (lo, hi, t_anchor, o_anchor, v, linear), g, f, spin, seam in zip(spans, inv_gamma, anchor_f, spins, seams):
+    for (lo, hi, t_anchor, o_anchor, v, linear), g, tau, spin, seam in zip(spans, inv_gamma, taus, spins, seams):
         lo, hi = max(lo, life_lo), min(hi, life_hi)
         if not lo < hi:
             continue
-        tau = f - f_ref  # proper time at the anchor
         ref = t_ref if body.decoupled else t_anchor - tau / g if g > 0.0 else t_anchor
         origin = o_anchor + v * (ref - t_anchor)
         shift = origin - m.static_pivot @ linear
@@ -256,7 +316,22 @@ def _seams(spans, radius: float, decoupled: bool) -> np.ndarray:
     g = np.einsum("kij,kjl->kil", np.array([sp[5] for sp in spans], dtype=np.float64), _contractions(v, decoupled))
     overlap = np.array([max(b[2] - b[0], 0.0) if np.isfinite(b[0]) else 0.0 for b in spans[1:]])
     gap = radius * np.linalg.norm(g[1:] - g[:-1], ord=2, axis=(1, 2)) + np.linalg.norm(v[1:] - v[:-1], axis=1) * overlap
+    # spans on either side of an uncut gap (spacetime/reach.py) do not meet
+    gap = np.where([a[1] >= b[0] for a, b in zip(spans[:-1], spans[1:])], gap, 0.0)
     return np.maximum(np.concatenate([[0.0], gap]), np.concatenate([gap, [0.0]]))
+
+
+def _proper_times(m, decoupled: bool, t) -> np.ndarray:
+    """F(t) = integral of dt / gamma from the first probe along the probes' chords (held
+    velocity outside them), at the lab times ``t``."""
+    t = np.asarray(t, dtype=np.float64)
+    speed2 = np.einsum("ij,ij->i", *(m.chord_velocities(),) * 2)
+    g = np.ones_like(speed2) if decoupled else np.sqrt(np.clip(1.0 - speed2, 0.0, None))
+    f = np.concatenate([[0.0], np.cumsum(g * np.diff(m.times))])
+    hold = 1.0 if decoupled else float(np.sqrt(max(1.0 - float(m.hold_velocity @ m.hold_velocity), 0.0)))
+    inside = np.interp(t, m.times, f)
+    return np.where(t < m.times[0], (t - m.times[0]) * hold,
+                    np.where(t > m.times[-1], f[-1] + (t - m.times[-1]) * hold, inside))
 
 
 def _spin(m, t_o: float, velocity: np.ndarray, decoupled: bool):
@@ -283,10 +358,11 @@ def animated_bodies(scene: Scene, cuts: tuple) -> tuple[tuple[Body, ...], np.nda
     return tuple(bodies), np.array(object_of, dtype=np.int32)
 
 
-def animation_report(scene: Scene, cameras, *, width: int, height: int) -> list[tuple[str, str]]:
+def animation_report(scene: Scene, cameras, *, width: int, height: int, reach=None) -> list[tuple[str, str]]:
     """(body prim path, one line) per animated body: its USD samples, its pivot's speed
-    range and the pieces it is rendered as for ``cameras`` at ``width`` x ``height``."""
-    cuts = dict(animation_cuts(scene, cameras, width=width, height=height)) if cameras else {}
+    range and the pieces it is rendered as for ``cameras`` at ``width`` x ``height``
+    (``reach``: as for ``animation_cuts``)."""
+    cuts = dict(animation_cuts(scene, cameras, width=width, height=height, reach=reach)) if cameras else {}
     lines = []
     for i, body in enumerate(scene.bodies):
         m = body.motion
@@ -300,6 +376,6 @@ def animation_report(scene: Scene, cameras, *, width: int, height: int) -> list[
                 f"{float(speeds.min()):.4g} to {float(speeds.max()):.4g} c, body points up to {fastest:.4g} c"
                 f" ({'Lorentz-decoupled' if body.decoupled else 'coupled'})")
         if i in cuts:
-            text += f"; {len(cuts[i]) + 1} motion segments at {width} x {height}"
+            text += f"; {piece_count(cuts[i])} motion segments at {width} x {height}"
         lines.append((body.prim_path, text))
     return lines
