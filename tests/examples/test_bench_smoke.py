@@ -18,7 +18,6 @@ import math
 import pytest
 from example_scripts import load_example
 
-from warp_st.commands.cli import main as cli_main
 
 
 def _load(name):
@@ -116,11 +115,6 @@ def test_performance_rejects_an_unknown_suite(capsys):
         _load("bench_performance").main(["--suites", "nope"])
     assert exc.value.code == 2
     assert "unknown suite" in capsys.readouterr().err.strip().splitlines()[-1]
-
-
-def test_the_command_line_has_no_bench(capsys):
-    assert cli_main(["bench", "--quick"]) == 2
-    assert "invalid choice: 'bench'" in capsys.readouterr().err
 
 
 def test_bench_trace_quick_compares_every_tracer(tmp_path, capsys):
