@@ -300,8 +300,7 @@ class Renderer:
         # Deforming bodies (docs/spec.md §2.2): slices within half a pixel in every frame.
         self.slice_view = (slice_view(ends, width=self.width, height=self.height)
                            if any(deforming(b) for b in scene.bodies) else None)
-        if self.slice_view is not None:
-            tessellation += (("deform", self.slice_view),)
+        tessellation += (("deform", self.slice_view),) if self.slice_view is not None else ()
         # The measuring options build a database of their own, neither looked up nor cached.
         measuring = self.sweep_fraction is not None or self.adjust_windows is not None
         if measuring:
@@ -580,8 +579,7 @@ def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fin
 
     if primitive not in ("prism", "tet"):
         raise ValueError(f"primitive must be prism or tet, got {primitive!r}")
-    mesh = dataclasses.replace(extrude_scene(scene, windows, fine=fine, fraction=fraction, view=view),
-                               primitive=primitive)
+    mesh = dataclasses.replace(extrude_scene(scene, windows, fine=fine, fraction=fraction, view=view), primitive=primitive)
     lo, hi = mesh.prim_boxes() if mesh.prim_count else (np.zeros((0, 4)), np.zeros((0, 4)))
     bvh = build_bvh(lo, hi, primitive=primitive)
     if primitive == "prism":
