@@ -1,7 +1,7 @@
 """NumPy -> Warp for the two-level rigid database (``kernels/trace_rigid.py``).
 
-Frame-independent (``RigidArrays``): the shading tables, the bottom levels' mesh ids per
-body, each body's first triangle, velocity and rest_from_lab map, the segments' bodies
+Frame-independent (``RigidArrays``): the shading tables, the bottom levels (accel/blas.py) and
+each body's root in them, each body's first triangle, velocity and rest_from_lab map, the segments' bodies
 in top-level leaf order and the top level's links. Per frame (``make_rigid_geometry``):
 the bodies' frame events, the segments' spans and boxes and the top level's boxes, recentred on
 the camera event in float64 and only then rounded (boxes outward): O(segments), so a
@@ -33,11 +33,16 @@ class RigidArrays(ShadingTables):
                  top: FlatBVH):
         super().__init__(k, shapes)
         n_tri = shapes.triangle_count
-        self.bottom = bottom  # keeps the meshes (and so their ids) alive
         self.prim_vidx = wp.array(shapes.tri_vidx[:, [0, 1, 2, 0]].astype(np.int32).reshape(-1, 4), dtype=wp.vec4i,
                                   device=_DEVICE)
         self.prim_tri = wp.array(np.arange(n_tri, dtype=np.int32), dtype=wp.int32, device=_DEVICE)
-        self.body_mesh = wp.array(bottom.body_mesh, dtype=wp.uint64, device=_DEVICE)
+        self.body_blas = wp.array(bottom.body_root, dtype=wp.int32, device=_DEVICE)
+        vec12 = wp.types.vector(12, wp.float32)
+        self.blas_lo = wp.array(bottom.node_lo, dtype=vec12, device=_DEVICE)
+        self.blas_hi = wp.array(bottom.node_hi, dtype=vec12, device=_DEVICE)
+        self.blas_link = wp.array(bottom.node_link, dtype=wp.vec4i, device=_DEVICE)
+        self.blas_vert = wp.array(bottom.tri_vert, dtype=wp.vec3, device=_DEVICE)
+        self.blas_face = wp.array(bottom.tri_face, dtype=wp.int32, device=_DEVICE)
         self.body_tri_base = wp.array(shapes.body_tri_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.body_rest = wp.array(shapes.rest_from_lab, dtype=wp.mat33d, device=_DEVICE)
         self.body_end = np.array([b.lifetime[1] for b in shapes.bodies], dtype=np.float64)
@@ -66,9 +71,10 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     g = k.Geometry()
     ns = static.np_scalar
     order = static.order
-    for name in ("prim_vidx", "prim_tri", "tri_body", "body_object", "body_mesh", "body_tri_base", "body_rest",
+    for name in ("prim_vidx", "prim_tri", "tri_body", "body_object", "body_blas", "body_tri_base", "body_rest",
                  "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi", "seg_body", "body_quadric",
-                 "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map", "body_map_shift"):
+                 "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map", "body_map_shift",
+                 "blas_lo", "blas_hi", "blas_link", "blas_vert", "blas_face"):
         setattr(g, name, getattr(static, name))
     g.body_velocity = static.body_velocity64
     vec2 = wp.types.vector(2, k.scalar)
