@@ -12,11 +12,12 @@ its shape — what ``wp.mesh_query_ray`` returns for the same ray and triangles.
 
 The triangle test is Woop, Benthin and Wald's watertight one (JCGT 2(1), 2013): the
 ray's largest axis becomes z, the vertices are sheared so that the ray is the z axis,
-and the 2D edge functions U, V, W decide (recomputed in float64 when one is exactly
-0). Each edge function is a difference of two float32 products, so two triangles
-sharing an edge get it with opposite signs bit for bit and a ray through the edge meets
-one of them: no cracks, unlike the fused products of ``wp.Mesh``'s test. Box tests
-widen the far slab by ``SLAB_GROW`` (pbrt's rule), so a box is never missed by rounding.
+and the 2D edge functions U, V, W decide. Each is a difference of two products of
+float32 numbers, computed in float64 (where the products are exact) and rounded once:
+as accurate as ``wp.Mesh``'s fused products, and two triangles sharing an edge get it
+with opposite signs bit for bit, so a ray through the edge meets one of them (no
+cracks). Box tests widen the far slab by ``SLAB_GROW`` (pbrt's rule), so a box is never
+missed by rounding.
 
 Traversal as in ``traverse.py``: a visit tests the four child boxes as one 12-lane slab
 test, goes to the nearest hit child and pushes the others farthest first.
@@ -97,13 +98,12 @@ def make_blas_query(Geometry):
                     by = b[ky] - sy * b[kz]
                     cx = c[kx] - sx * c[kz]
                     cy = c[ky] - sy * c[kz]
-                    eu = cx * by - cy * bx
-                    ev = ax * cy - ay * cx
-                    ew = bx * ay - by * ax
-                    if eu == 0.0 or ev == 0.0 or ew == 0.0:
-                        eu = wp.float32(wp.float64(cx) * wp.float64(by) - wp.float64(cy) * wp.float64(bx))
-                        ev = wp.float32(wp.float64(ax) * wp.float64(cy) - wp.float64(ay) * wp.float64(cx))
-                        ew = wp.float32(wp.float64(bx) * wp.float64(ay) - wp.float64(by) * wp.float64(ax))
+                    # Edge functions: products of float32 are exact in float64, so each
+                    # is their difference rounded once (an edge shared by two triangles
+                    # gets the same value with opposite signs in both).
+                    eu = wp.float32(wp.float64(cx) * wp.float64(by) - wp.float64(cy) * wp.float64(bx))
+                    ev = wp.float32(wp.float64(ax) * wp.float64(cy) - wp.float64(ay) * wp.float64(cx))
+                    ew = wp.float32(wp.float64(bx) * wp.float64(ay) - wp.float64(by) * wp.float64(ax))
                     outside = (eu < 0.0 or ev < 0.0 or ew < 0.0) and (eu > 0.0 or ev > 0.0 or ew > 0.0)
                     det = eu + ev + ew
                     if not outside and det != 0.0:
