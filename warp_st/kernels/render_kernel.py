@@ -17,7 +17,10 @@ from warp_st.kernels.texture import make_textures
 from warp_st.kernels.trace import make_trace
 from warp_st.kernels.trace_rigid import make_trace_rigid
 
-__all__ = ["get_kernels", "Kernels"]
+__all__ = ["get_kernels", "Kernels", "PIXELS_PER_THREAD"]
+
+#: Pixels one kernel thread renders in turn (``render_pixels``).
+PIXELS_PER_THREAD = 64
 
 
 
@@ -289,9 +292,8 @@ def _make_render(scalar, k, trace, Geometry):
         o = vec4(tau, tau * cam.velocity[0], tau * cam.velocity[1], tau * cam.velocity[2])
         return o, n
 
-    @wp.kernel(enable_backward=False, module="unique")
-    def render_pixels(geo: Geometry, shd: Shading, cam: Camera, film: Film, offset: int):
-        pixel = wp.tid() + offset
+    @wp.func(inline=True)
+    def render_pixel(geo: Geometry, shd: Shading, cam: Camera, film: Film, pixel: int):
         px = pixel % cam.width
         py = pixel / cam.width
         # Ray 0 is the AOV ray: the pixel centre at the frame's camera time (also the
@@ -392,6 +394,16 @@ def _make_render(scalar, k, trace, Geometry):
             )
         film.doppler[pixel] = dop
         film.object_id[pixel] = body + 1
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def render_pixels(geo: Geometry, shd: Shading, cam: Camera, film: Film, offset: int, end: int):
+        """Pixels offset + tid * PIXELS_PER_THREAD onwards, up to ``end`` (exclusive), in
+        turn: a CPU launch copies the kernel's struct arguments (kilobytes) per thread,
+        so a thread per pixel spent a tenth of a static frame on copies."""
+        first = offset + wp.tid() * PIXELS_PER_THREAD
+        last = wp.min(first + PIXELS_PER_THREAD, end)
+        for pixel in range(first, last):
+            render_pixel(geo, shd, cam, film, pixel)
 
     return Shading, Camera, Film, render_pixels
 

@@ -55,9 +55,9 @@ BYTES_PER_PIXEL = (4 * 4 + 5 * 4 + 3 * 4) + (4 * 4 + 2 * 8 + 5 * 4)
 #: frame span changes: the host tables (vertex indices int32 x 3, normal float64 x 3,
 #: size float64, smooth / body / material int32, the shape's indices int32 x 3), the
 #: device tables (vertex indices int32 x 4, triangle int32, normal float32 x 3, size,
-#: smooth, body, material) and the bottom level (wp.Mesh indices int32 x 3, at most two
-#: 32-byte BVH nodes and a permutation entry).
-BYTES_PER_RIGID_TRIANGLE = (12 + 24 + 8 + 12 + 12) + (16 + 4 + 12 + 16) + (12 + 64 + 4)
+#: smooth, body, material) and the bottom level (accel/blas.py: three float32 vertices,
+#: the face int32, and about 0.6 wide nodes of 112 bytes per triangle of a shape).
+BYTES_PER_RIGID_TRIANGLE = (12 + 24 + 8 + 12 + 12) + (16 + 4 + 12 + 16) + (36 + 4 + 68)
 #: Per vertex: rest point and normal (float64, host), mesh point and normal (float32, device).
 BYTES_PER_RIGID_VERTEX = 24 + 24 + 12 + 12
 

@@ -23,6 +23,7 @@ from warp_st.core.conventions import DEFAULT_RESOLUTION, LightSpeed, Precision
 from warp_st.core.limits import resolve_max_memory
 from warp_st.core.scene import CameraState, Scene, SceneError
 from warp_st.kernels.layout import PRIMITIVES
+from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
 from warp_st.output.channels import LOW_TIME_CHANNELS, join_time, split_time
 from warp_st.output.cryptomatte import image_layers, resolve_layers
 from warp_st.output.film import Image, quantize_time
@@ -474,7 +475,9 @@ class Renderer:
         tiles = [(o, min(TILE_PIXELS, n_pix - o)) for o in range(0, n_pix, TILE_PIXELS)]
 
         def launch(tile):
-            wp.launch(k.render_pixels, dim=tile[1], inputs=[geo, shd, kcam, film, tile[0]], device="cpu")
+            threads = -(-tile[1] // PIXELS_PER_THREAD)
+            wp.launch(k.render_pixels, dim=threads, inputs=[geo, shd, kcam, film, tile[0], tile[0] + tile[1]],
+                      device="cpu")
 
         t_kernel = time.perf_counter()
         n_threads = max(1, int(threads or self.threads))
