@@ -292,118 +292,115 @@ def _make_render(scalar, k, trace, Geometry):
         o = vec4(tau, tau * cam.velocity[0], tau * cam.velocity[1], tau * cam.velocity[2])
         return o, n
 
-    @wp.func(inline=True)
-    def render_pixel(geo: Geometry, shd: Shading, cam: Camera, film: Film, pixel: int):
-        px = pixel % cam.width
-        py = pixel / cam.width
-        # Ray 0 is the AOV ray: the pixel centre at the frame's camera time (also the
-        # beauty when there is one sample); rays 1..samples are the jittered samples.
-        # One call site of trace_path, so the compiler inlines it (with a second one it
-        # became an out-of-line call copying the Geometry and Shading structs per ray).
-        n = camera_direction(cam, scalar(px) + scalar(0.5), scalar(py) + scalar(0.5))
-        rays = int(1)
-        if cam.samples > 1:
-            rays = 1 + cam.samples
-        color = vec3(scalar(0.0))
-        alpha = scalar(0.0)
-        prim = int(-1)
-        s = scalar(0.0)
-        src_t = scalar(0.0)
-        src_b = int(0)
-        visits = int(0)
-        overflow = int(0)
-        sum_color = vec3(scalar(0.0))
-        sum_alpha = scalar(0.0)
-        for k in range(rays):
-            ray_o = vec4(scalar(0.0))
-            ray_n = n
-            if k > 0:
-                ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
-            c, a, p_k, s_k, _lam, st_k, sb_k, ray_visits, ray_ovf = trace_path(geo, shd, cam, ray_o, ray_n)
-            visits += ray_visits
-            overflow = wp.max(overflow, ray_ovf)
-            if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
-                hit_id = int(0)
-                if p_k >= 0:
-                    hit_id = geo.prim_tri[p_k] + 1
-                film.sample_id[pixel * cam.samples + wp.max(k - 1, 0)] = hit_id
-            if k == 0:
-                color = c
-                alpha = a
-                prim = p_k
-                s = s_k
-                src_t = st_k
-                src_b = sb_k
-            else:
-                sum_color = sum_color + c
-                sum_alpha = sum_alpha + a
-        if cam.samples > 1:
-            inv = scalar(1.0) / scalar(cam.samples)
-            color = sum_color * inv
-            alpha = sum_alpha * inv
-        film.visits[pixel] = visits
-        if overflow != 0:
-            film.overflow[0] = 1
-        bg = shd.background
-        if shd.sky.present != 0:
-            bg = vec3(scalar(0.0))  # the sky is in the colour already
-        film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
-        if prim < 0:
-            film.depth[pixel] = scalar(wp.inf)
-            film.event_time[pixel] = scalar(wp.nan)
-            film.proper_time[pixel] = scalar(wp.nan)
-            film.doppler[pixel] = scalar(wp.nan)
-            if shd.sky.present != 0:  # the dome's D = (k.u_cam)/(k.u_lab), k = (1, -n)
-                uc0 = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
-                film.doppler[pixel] = uc0[0]
-                if cam.finite != 0:
-                    film.doppler[pixel] = uc0[0] + n[0] * uc0[1] + n[1] * uc0[2] + n[2] * uc0[3]
-            film.object_id[pixel] = 0
-            film.source_time[pixel] = scalar(wp.nan)
-            film.bounces[pixel] = 0
-            return
-        dt = scalar(0.0)
-        if cam.finite != 0:
-            dt = -s
-        event = vec4(dt, s * n[0], s * n[1], s * n[2])
-        film.depth[pixel] = rest_distance(cam, dt, vec3(event[1], event[2], event[3]))
-        film.event_time[pixel] = event[0]
-        film.source_time[pixel] = src_t
-        film.bounces[pixel] = src_b
-
-        body = shd.tri_body[geo.prim_tri[prim]]
-        bo = shd.body_origin[body]
-        v = shd.body_velocity[body]
-        dec = shd.body_decoupled[body]
-        rel_t = event[0] - bo[0]
-        tau = rel_t
-        if dec == 0:
-            rel_x = vec3(event[1] - bo[1], event[2] - bo[2], event[3] - bo[3])
-            tau = shd.body_gamma[body] * (rel_t - wp.dot(v, rel_x))
-        film.proper_time[pixel] = tau
-
-        # D = (k.u_cam)/(k.u_body), k = (1, -n): -k.u = u_t + n.u_x. With infinite
-        # light speed only time dilation is left: the limit is u_cam_t / u_body_t.
-        u, gamma_u = point_velocity(shd, body, event)  # the emitting point's (docs/spec.md §2.1)
-        ub = four_velocity(u, gamma_u, dec)
-        uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
-        dop = uc[0] / ub[0]
-        if cam.finite != 0:
-            dop = (uc[0] + n[0] * uc[1] + n[1] * uc[2] + n[2] * uc[3]) / (
-                ub[0] + n[0] * ub[1] + n[1] * ub[2] + n[2] * ub[3]
-            )
-        film.doppler[pixel] = dop
-        film.object_id[pixel] = body + 1
-
     @wp.kernel(enable_backward=False, module="unique")
     def render_pixels(geo: Geometry, shd: Shading, cam: Camera, film: Film, offset: int, end: int):
-        """Pixels offset + tid * PIXELS_PER_THREAD onwards, up to ``end`` (exclusive), in
-        turn: a CPU launch copies the kernel's struct arguments (kilobytes) per thread,
-        so a thread per pixel spent a tenth of a static frame on copies."""
+        # Pixels offset + tid * PIXELS_PER_THREAD onwards, up to ``end`` (exclusive), in
+        # turn: a CPU launch copies the kernel's struct arguments (kilobytes) per
+        # thread, and so does every call that takes them, inlined or not (Warp passes
+        # structs by value): the loop is the kernel's own, around the pixel's code.
         first = offset + wp.tid() * PIXELS_PER_THREAD
         last = wp.min(first + PIXELS_PER_THREAD, end)
         for pixel in range(first, last):
-            render_pixel(geo, shd, cam, film, pixel)
+            px = pixel % cam.width
+            py = pixel / cam.width
+            # Ray 0 is the AOV ray: the pixel centre at the frame's camera time (also the
+            # beauty when there is one sample); rays 1..samples are the jittered samples.
+            # One call site of trace_path, so the compiler inlines it (with a second one it
+            # became an out-of-line call copying the Geometry and Shading structs per ray).
+            n = camera_direction(cam, scalar(px) + scalar(0.5), scalar(py) + scalar(0.5))
+            rays = int(1)
+            if cam.samples > 1:
+                rays = 1 + cam.samples
+            color = vec3(scalar(0.0))
+            alpha = scalar(0.0)
+            prim = int(-1)
+            s = scalar(0.0)
+            src_t = scalar(0.0)
+            src_b = int(0)
+            visits = int(0)
+            overflow = int(0)
+            sum_color = vec3(scalar(0.0))
+            sum_alpha = scalar(0.0)
+            for k in range(rays):
+                ray_o = vec4(scalar(0.0))
+                ray_n = n
+                if k > 0:
+                    ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
+                c, a, p_k, s_k, _lam, st_k, sb_k, ray_visits, ray_ovf = trace_path(geo, shd, cam, ray_o, ray_n)
+                visits += ray_visits
+                overflow = wp.max(overflow, ray_ovf)
+                if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
+                    hit_id = int(0)
+                    if p_k >= 0:
+                        hit_id = geo.prim_tri[p_k] + 1
+                    film.sample_id[pixel * cam.samples + wp.max(k - 1, 0)] = hit_id
+                if k == 0:
+                    color = c
+                    alpha = a
+                    prim = p_k
+                    s = s_k
+                    src_t = st_k
+                    src_b = sb_k
+                else:
+                    sum_color = sum_color + c
+                    sum_alpha = sum_alpha + a
+            if cam.samples > 1:
+                inv = scalar(1.0) / scalar(cam.samples)
+                color = sum_color * inv
+                alpha = sum_alpha * inv
+            film.visits[pixel] = visits
+            if overflow != 0:
+                film.overflow[0] = 1
+            bg = shd.background
+            if shd.sky.present != 0:
+                bg = vec3(scalar(0.0))  # the sky is in the colour already
+            film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
+            if prim < 0:
+                film.depth[pixel] = scalar(wp.inf)
+                film.event_time[pixel] = scalar(wp.nan)
+                film.proper_time[pixel] = scalar(wp.nan)
+                film.doppler[pixel] = scalar(wp.nan)
+                if shd.sky.present != 0:  # the dome's D = (k.u_cam)/(k.u_lab), k = (1, -n)
+                    uc0 = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
+                    film.doppler[pixel] = uc0[0]
+                    if cam.finite != 0:
+                        film.doppler[pixel] = uc0[0] + n[0] * uc0[1] + n[1] * uc0[2] + n[2] * uc0[3]
+                film.object_id[pixel] = 0
+                film.source_time[pixel] = scalar(wp.nan)
+                film.bounces[pixel] = 0
+                continue
+            dt = scalar(0.0)
+            if cam.finite != 0:
+                dt = -s
+            event = vec4(dt, s * n[0], s * n[1], s * n[2])
+            film.depth[pixel] = rest_distance(cam, dt, vec3(event[1], event[2], event[3]))
+            film.event_time[pixel] = event[0]
+            film.source_time[pixel] = src_t
+            film.bounces[pixel] = src_b
+
+            body = shd.tri_body[geo.prim_tri[prim]]
+            bo = shd.body_origin[body]
+            v = shd.body_velocity[body]
+            dec = shd.body_decoupled[body]
+            rel_t = event[0] - bo[0]
+            tau = rel_t
+            if dec == 0:
+                rel_x = vec3(event[1] - bo[1], event[2] - bo[2], event[3] - bo[3])
+                tau = shd.body_gamma[body] * (rel_t - wp.dot(v, rel_x))
+            film.proper_time[pixel] = tau
+
+            # D = (k.u_cam)/(k.u_body), k = (1, -n): -k.u = u_t + n.u_x. With infinite
+            # light speed only time dilation is left: the limit is u_cam_t / u_body_t.
+            u, gamma_u = point_velocity(shd, body, event)  # the emitting point's (docs/spec.md §2.1)
+            ub = four_velocity(u, gamma_u, dec)
+            uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
+            dop = uc[0] / ub[0]
+            if cam.finite != 0:
+                dop = (uc[0] + n[0] * uc[1] + n[1] * uc[2] + n[2] * uc[3]) / (
+                    ub[0] + n[0] * ub[1] + n[1] * ub[2] + n[2] * ub[3]
+                )
+            film.doppler[pixel] = dop
+            film.object_id[pixel] = body + 1
 
     return Shading, Camera, Film, render_pixels
 
