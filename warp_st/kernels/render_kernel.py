@@ -152,15 +152,15 @@ def _make_render(scalar, k, trace, Geometry):
 
     @wp.func
     def four_velocity(v: vec3, gamma: scalar, decoupled: int) -> vec4:
-        if decoupled != 0:
-            return vec4(scalar(1.0), v[0], v[1], v[2])
-        return vec4(gamma, gamma * v[0], gamma * v[1], gamma * v[2])
+        # (1, v) decoupled, gamma (1, v) coupled; one select, not a vector built in two
+        # branches (the compiler stores such a vector through memory and the 8-byte
+        # load after its 4-byte stores stalls).
+        g = wp.where(decoupled != 0, scalar(1.0), gamma)
+        return vec4(g, g * v[0], g * v[1], g * v[2])
 
     @wp.func
     def null_dir(n: vec3, finite: int) -> vec4:
-        if finite != 0:
-            return vec4(scalar(-1.0), n[0], n[1], n[2])
-        return vec4(scalar(0.0), n[0], n[1], n[2])
+        return vec4(wp.where(finite != 0, scalar(-1.0), scalar(0.0)), n[0], n[1], n[2])
 
     @wp.func
     def trace_path(geo: Geometry, shd: Shading, cam: Camera, origin: vec4, n0: vec3):
