@@ -48,7 +48,9 @@ def shape_tree(points: np.ndarray, triangles: np.ndarray):
     n = len(triangles)
     prim_lo = np.concatenate([np.zeros((n, 1)), lo3], axis=1)
     prim_hi = np.concatenate([np.full((n, 1), span), hi3], axis=1)
-    bvh = build_bvh(prim_lo, prim_hi, "tri", leaf_size=1)
+    # Ranges of up to 4 triangles always become leaves: two levels fewer to build (a
+    # third of the build), queries as fast within the spread of single runs.
+    bvh = build_bvh(prim_lo, prim_hi, "tri", leaf_size=4)
     wide = collapse(bvh)
     lo16, hi16 = wide_boxes(wide, bvh.node_lo, bvh.node_hi)
     lo, hi = lo16[:, WIDTH:].astype(np.float32), hi16[:, WIDTH:].astype(np.float32)
