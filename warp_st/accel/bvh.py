@@ -128,8 +128,7 @@ _SAH_KERNELS: dict = {}
 
 
 def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, force_median):
-    """Split one level's nodes; from two nodes on, in two halves on two threads (disjoint
-    ranges: the tree does not depend on it)."""
+    """Split one level's nodes; wide levels in two halves on two threads (disjoint ranges)."""
     from concurrent.futures import ThreadPoolExecutor
 
     m = len(seg_start)
@@ -143,12 +142,12 @@ def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, for
             wp.launch(kernel, dim=hi - lo, inputs=[centre, plo, phi, order_w, starts[lo:hi], ends[lo:hi], flag, mids[lo:hi]],
                       device="cpu")
 
-    if m < 2:
+    if m < 64:
         run(0, m)
     else:
         # Balance by primitive count, not node count.
         work = np.cumsum(seg_end - seg_start)
-        half = int(np.clip(np.searchsorted(work, work[-1] / 2, side="right"), 1, m - 1))
+        half = int(np.searchsorted(work, work[-1] / 2))
         with ThreadPoolExecutor(max_workers=2) as pool:
             list(pool.map(lambda r: run(*r), [(0, half), (half, m)]))
     return mids.numpy().astype(np.int64)
