@@ -347,3 +347,27 @@ def test_rays_through_shared_edges_and_vertices_of_a_closed_mesh_hit(segments):
         origin, target = origin.astype(np.float32), target.astype(np.float32)
         face, t, _uv = shape.query(origin, target - origin)
         assert (face >= 0).all(), (segments, len(tri), int((face < 0).sum()))
+
+
+def test_axis_rays_through_the_diagonals_and_edges_of_a_cube_hit():
+    """Watertight, exactly: rays along the axes through points of a cube face's diagonal
+    (the edge its two triangles share) and of its border, at binary fractions (so the
+    ray meets the edge exactly: an edge function is exactly 0 there), always hit."""
+    pts, tris = tessellate.cube(1.0)
+    shape = Shape(pts, tris)
+    t = np.arange(-8, 9) / 16.0  # -0.5 .. 0.5: the border at the ends
+    origins, dirs = [], []
+    for axis in range(3):
+        u_axis, v_axis = [k for k in range(3) if k != axis]
+        for sign in (1.0, -1.0):
+            for u in t:
+                for v in (u, -u, 0.5, -0.5):
+                    p = np.zeros(3)
+                    p[u_axis], p[v_axis], p[axis] = u, v, 5.0 * sign
+                    d = np.zeros(3)
+                    d[axis] = -sign
+                    origins.append(p)
+                    dirs.append(d)
+    face, t_hit, _uv = shape.query(np.array(origins), np.array(dirs))
+    assert (face >= 0).all(), int((face < 0).sum())
+    assert np.allclose(t_hit, 4.5)  # the face at 0.5, exactly 4.5 from the origin plane

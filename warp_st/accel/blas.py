@@ -53,7 +53,12 @@ def shape_tree(points: np.ndarray, triangles: np.ndarray):
     bvh = build_bvh(prim_lo, prim_hi, "tri", leaf_size=4)
     wide = collapse(bvh)
     lo16, hi16 = wide_boxes(wide, bvh.node_lo, bvh.node_hi)
-    lo, hi = lo16[:, WIDTH:].astype(np.float32), hi16[:, WIDTH:].astype(np.float32)
+    # One float32 step outward: a ray along a box's face with a zero direction component
+    # (an axis-aligned camera's centre column) would get the exit (hi - o) / d = 0 x 1e30
+    # = 0 there, not +inf, and miss the box; widened, the face lies strictly outside
+    # every ray that meets the triangles.
+    lo = np.nextafter(lo16[:, WIDTH:].astype(np.float32), np.float32(-np.inf))
+    hi = np.nextafter(hi16[:, WIDTH:].astype(np.float32), np.float32(np.inf))
     empty = np.tile(wide.slot_node < 0, (1, 3))  # slot k is lanes k, 4 + k, 8 + k
     lo[empty] = FAR
     hi[empty] = FAR
