@@ -27,6 +27,7 @@ import warp as wp
 
 from warp_st.accel.blas import BottomLevels
 from warp_st.core import tessellate
+from warp_st.kernels import get_kernels
 from warp_st.kernels.blas import make_blas_query
 from warp_st.rendering.warp_init import init_warp
 
@@ -40,15 +41,8 @@ T_TOL = 1.0e-5
 EDGE_TOL = 1.0e-6
 
 
-@wp.struct
-class Blas:
-    blas_lo: wp.array(dtype=VEC12)
-    blas_hi: wp.array(dtype=VEC12)
-    blas_link: wp.array(dtype=wp.vec4i)
-    blas_vert: wp.array(dtype=wp.vec3)
-    blas_face: wp.array(dtype=wp.int32)
-
-
+#: The rigid path's Geometry; only its bottom-level arrays are set here.
+Blas = get_kernels("float32", "rigid").Geometry
 _query = make_blas_query(Blas)
 
 

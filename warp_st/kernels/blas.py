@@ -26,7 +26,7 @@ test, goes to the nearest hit child and pushes the others farthest first.
 import warp as wp
 
 from warp_st.kernels.layout import LINK_MASK, LINK_SHIFT
-from warp_st.kernels.traverse import STACK_SIZE, make_box_ops
+from warp_st.kernels.traverse import STACK_SIZE, make_box_ops, make_sort4
 
 __all__ = ["make_blas_query"]
 
@@ -36,19 +36,8 @@ def make_blas_query(Geometry):
     stack_i = wp.types.vector(STACK_SIZE, wp.int32)
     stack_s = wp.types.vector(STACK_SIZE, wp.float32)
     fmin, fmax, safe_inv, SLAB_GROW = make_box_ops(wp.float32)
+    sort4 = make_sort4(wp.float32)
     INF = float("inf")
-
-    @wp.func
-    def order2(e: wp.vec4, l: wp.vec4i, i: int, j: int):
-        """Compare-exchange of entries i < j (with their links) into ascending order."""
-        if e[j] < e[i]:
-            t = e[i]
-            e[i] = e[j]
-            e[j] = t
-            m = l[i]
-            l[i] = l[j]
-            l[j] = m
-        return e, l
 
     @wp.func(inline=True)
     def blas_query(g: Geometry, root: int, p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int):
@@ -135,11 +124,7 @@ def make_blas_query(Geometry):
                         hits += 1
                     else:
                         e[k] = INF
-                e, links = order2(e, links, 0, 1)
-                e, links = order2(e, links, 2, 3)
-                e, links = order2(e, links, 0, 2)
-                e, links = order2(e, links, 1, 3)
-                e, links = order2(e, links, 1, 2)
+                e, links = sort4(e, links)
                 if hits > 0:
                     next_link = links[0]
                     if sp + hits - 1 <= STACK_SIZE:

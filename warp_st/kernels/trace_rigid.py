@@ -4,7 +4,7 @@ Two levels (``warp_st.spacetime.rigid``, ``warp_st.accel.instances``):
 
 - top: the 4-wide 4D BVH (``traverse.py``) over motion segments, each a body over a
   lab-time span [t_lo, t_hi] with its 4D box;
-- bottom: one ``wp.Mesh`` per distinct shape, its triangles at rest in body coordinates
+- bottom: one 4-wide 3D BVH per distinct shape (``blas.py``), its triangles at rest in body coordinates
   (an animated body's pieces share one: ``body_map`` turns the ray into it).
 
 A leaf's segment takes the ray E(s) = O + s d into its body's coordinates: with the
@@ -54,7 +54,7 @@ __all__ = ["make_trace_rigid"]
 
 def make_trace_rigid(scalar):
     """The rigid path's Geometry and traversal in ``scalar``. The bottom levels'
-    ``wp.Mesh`` queries are float32 whatever ``scalar`` is (``at``): in float64 the path
+    bottom-level queries are float32 whatever ``scalar`` is (``at``): in float64 the path
     is exact only for analytic shapes, which is why the renderer takes it in float64 only
     for scenes of exact quadrics (``rendering.renderer``)."""
     vec2 = wp.types.vector(2, scalar)
@@ -201,7 +201,7 @@ def make_trace_rigid(scalar):
 
     @wp.func
     def at(p: wp.vec3d, d: wp.vec3d, s: wp.float64) -> wp.vec3:
-        """The ray's point at s, as a float32 ``wp.Mesh`` query takes it."""
+        """The ray's point at s, as a float32 bottom-level query takes it."""
         q = p + d * s
         return wp.vec3(wp.float32(q[0]), wp.float32(q[1]), wp.float32(q[2]))
 

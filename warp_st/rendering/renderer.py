@@ -191,14 +191,14 @@ class Renderer:
         self.doppler_color = bool(settings.doppler_color)
         self.searchlight = bool(settings.searchlight)
         self.precision = Precision(settings.precision or Precision.FLOAT32)
-        # The rigid path's wp.Mesh queries are float32: in float64 it serves only scenes
+        # The rigid path's bottom-level queries are float32: in float64 it serves only scenes
         # whose every body is an exact quadric (then it is exact in float64).
         all_exact = quadrics != "tessellated" and all_exact_quadrics(scene)
         primitive = deform_primitive(scene, primitive)  # deforming bodies: tetrahedra (docs/spec.md §2.2)
         if primitive is None:
             primitive = "rigid" if self.precision == Precision.FLOAT32 or all_exact else "prism"
         if primitive == "rigid" and self.precision != Precision.FLOAT32 and not all_exact:
-            raise SceneError.at(src, None, "primitive", "rigid traces meshes in float32 (wp.Mesh): in float64 only "
+            raise SceneError.at(src, None, "primitive", "rigid traces meshes in float32: in float64 only "
                                                         "scenes of exact quadrics; use prism or tet")
         if primitive == "rigid" and sweep_fraction is not None:
             raise ValueError("sweep_fraction sets the extrusion's time segments; the rigid path has none "
