@@ -41,8 +41,10 @@ FAR = 1.0e30
 def shape_tree(points: np.ndarray, triangles: np.ndarray):
     """The 4-wide tree of one shape: (lo (W, 12), hi (W, 12), link (W, 4) local,
     order (T,) the triangles in leaf order). ``points`` float32 (P, 3)."""
-    corners = points[triangles]  # (T, 3, 3) float32: the boxes are exact
-    lo3, hi3 = corners.min(axis=1).astype(np.float64), corners.max(axis=1).astype(np.float64)
+    a, b, c = (points[triangles[:, k]] for k in range(3))  # float32: the boxes are exact
+    # Pairwise, not a reduction over an axis of three (ten times slower in NumPy).
+    lo3 = np.minimum(np.minimum(a, b), c).astype(np.float64)
+    hi3 = np.maximum(np.maximum(a, b), c).astype(np.float64)
     size = float(np.max(hi3.max(axis=0) - lo3.min(axis=0))) if len(triangles) else 1.0
     span = 1.0e3 * max(size, 1.0e-30)
     n = len(triangles)
