@@ -90,6 +90,10 @@ def _make_render(scalar, k, trace, Geometry):
         strata: int
         shutter: scalar
         seed: int
+        # Film coordinates of the pixel centres' rays, (x_ndc h_ap / 2 + h_off) / focal per
+        # column and (y_ndc v_ap / 2 + v_off) / focal per row (``pixel_direction``).
+        col: wp.array(dtype=wp.float64)
+        row: wp.array(dtype=wp.float64)
 
     @wp.struct
     class Film:
@@ -135,6 +139,16 @@ def _make_render(scalar, k, trace, Geometry):
         return wp.length(dx + ((cam.gamma - scalar(1.0)) / vv) * wp.dot(v, dx) * v - cam.gamma * dt * v)
 
     @wp.func
+    def lens_direction(cam: Camera, d_cam: wp.vec3d) -> vec3:
+        """The lab look direction of camera-frame direction ``d_cam`` (float64, rounded
+        once to ``scalar`` before the aberration)."""
+        d = wp.normalize(cam.lab_from_camera * d_cam)
+        n_rest = vec3(scalar(d[0]), scalar(d[1]), scalar(d[2]))
+        if cam.moving != 0:
+            return aberrate(n_rest, cam.velocity, cam.gamma, cam.decoupled)
+        return n_rest
+
+    @wp.func
     def camera_direction(cam: Camera, px: scalar, py: scalar) -> vec3:
         """Pinhole look direction in the lab for film position (px, py) in pixels: in
         float64, rounded once to ``scalar`` before the aberration."""
@@ -144,11 +158,13 @@ def _make_render(scalar, k, trace, Geometry):
         y_ndc = one - (wp.float64(py) / wp.float64(cam.height)) * wp.float64(2.0)
         d_cam = wp.vec3d((x_ndc * cam.h_ap * half + cam.h_off) / cam.focal,
                          (y_ndc * cam.v_ap * half + cam.v_off) / cam.focal, -one)
-        d = wp.normalize(cam.lab_from_camera * d_cam)
-        n_rest = vec3(scalar(d[0]), scalar(d[1]), scalar(d[2]))
-        if cam.moving != 0:
-            return aberrate(n_rest, cam.velocity, cam.gamma, cam.decoupled)
-        return n_rest
+        return lens_direction(cam, d_cam)
+
+    @wp.func
+    def pixel_direction(cam: Camera, px: int, py: int) -> vec3:
+        """``camera_direction`` at pixel (px, py)'s centre, its film coordinates from the
+        host's tables (the same float64 operations, so the same bits: no divisions here)."""
+        return lens_direction(cam, wp.vec3d(cam.col[px], cam.row[py], wp.float64(-1.0)))
 
     @wp.func
     def four_velocity(v: vec3, gamma: scalar, decoupled: int) -> vec4:
@@ -307,7 +323,7 @@ def _make_render(scalar, k, trace, Geometry):
             # beauty when there is one sample); rays 1..samples are the jittered samples.
             # One call site of trace_path, so the compiler inlines it (with a second one it
             # became an out-of-line call copying the Geometry and Shading structs per ray).
-            n = camera_direction(cam, scalar(px) + scalar(0.5), scalar(py) + scalar(0.5))
+            n = pixel_direction(cam, px, py)
             rays = int(1)
             if cam.samples > 1:
                 rays = 1 + cam.samples
