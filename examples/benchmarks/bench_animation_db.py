@@ -66,7 +66,7 @@ def one_example(name: str, frames: list[float], width: int, height: int) -> dict
         t1 = time.perf_counter()
         renderer.render(f)
         times.append(time.perf_counter() - t1)
-    return {"example": name, "pieces": len(db.shapes.bodies), "bottom_levels": len(db.bottom.meshes),
+    return {"example": name, "pieces": len(db.shapes.bodies), "bottom_levels": db.bottom.count,
             "segments": db.segments.count, "triangles": db.shapes.triangle_count,
             "build_s": build, "bottom_s": db.bottom.build_seconds, "peak_rss_mb": _peak_rss_mb(),
             "rss_before_mb": rss_before, "frame_s": statistics.median(times)}
@@ -92,7 +92,7 @@ def sequence(count: int, width: int, height: int) -> dict:
         renderers[label] = Renderer(sc, frames=frames, width=width, height=height)
         out[label] = {"builds": database_cache.builds() - builds, "construct_s": time.perf_counter() - t0,
                       "pieces": len(renderers[label].database.shapes.bodies),
-                      "bottom_levels": len(renderers[label].database.bottom.meshes), "per": []}
+                      "bottom_levels": renderers[label].database.bottom.count, "per": []}
     built = database_cache.builds()
     for f in frames:  # both sides back to back per frame: the machine's drift cancels in the ratio
         for label, renderer in renderers.items():

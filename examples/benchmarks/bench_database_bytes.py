@@ -5,8 +5,8 @@ A benchmark, not a test: it asserts nothing. The scene is ``bench_two_level.py``
 first-render one (16 spheres of 256 longitudes, 1,040,384 triangles, at rest; all 16
 one shape, instanced), or with ``--distinct`` the same spheres each of its own radius
 (16 shapes: no instancing). The count is ``rendering.database_bytes.rigid_tables`` after
-one render (every host and device table, the bottom levels' wp.Mesh with Warp's native
-memory); as a check of it, the process's resident memory growth over the renderer's
+one render (every host and device table, the bottom levels' own: accel/blas.py); as a
+check of it, the process's resident memory growth over the renderer's
 construction (kernels compiled and loaded before, by a small scene's render; glibc's
 MALLOC_MMAP_THRESHOLD_=65536, set here when absent, returns freed temporaries to the
 system, so the RSS is what is held, not the build's peak).
@@ -24,7 +24,6 @@ import resource
 import sys
 from pathlib import Path
 
-import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -83,7 +82,7 @@ def main(argv=None) -> int:
     total = total_bytes(tables)
     verts = sum(len(s.points) for b in sc.bodies for s in b.surfaces)
     print(f"CPU: {cpu_model()}; {tris:,} triangles, {verts:,} vertices, "
-          f"{len(r.database.bottom.meshes)} bottom level(s), {args.size}x{args.size}")
+          f"{r.database.bottom.count} bottom level(s), {args.size}x{args.size}")
     print()
     print("| table | dtype | rows | bytes | B/tri |")
     print("|---|---|---|---|---|")

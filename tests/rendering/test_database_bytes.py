@@ -21,7 +21,7 @@ import numpy as np
 
 from warp_st.core import tessellate
 from warp_st.core.scene import Body, CameraState, Light, Material, Surface
-from warp_st.rendering.database_bytes import WP_MESH_NATIVE_BYTES_PER_TRIANGLE, rigid_tables, total_bytes
+from warp_st.rendering.database_bytes import rigid_tables, total_bytes
 from warp_st.rendering.renderer import Renderer
 from warp_st.spacetime.rigid import rigid_shapes
 from warp_st.testing import synthetic_scene
@@ -63,10 +63,11 @@ def test_static_rigid_database_stays_within_its_bytes_per_triangle():
     """16 instances of a 6,240-triangle sphere (99,840 triangles). The layout's bytes
     per triangle: normal (3 x float32) 12, size (float32) 4, smooth, body and material
     (int32) 12, and the vertex normals (3 x float32 per vertex, 0.5 vertices per triangle
-    of a closed sphere) 6: 34; the one shape's bottom level, shared by 16 bodies: its
-    wp.Mesh (WP_MESH_NATIVE_BYTES_PER_TRIANGLE = 100), indices 12 and points 6 over 16,
-    7.4; the per-body and per-segment rows (~1 KB per body over 6,240 triangles) ~0.2.
-    Measured 41.6. The bound, 46, leaves 4 B for those rows and for the pole's vertices
+    of a closed sphere) 6: 34; the one shape's bottom level, shared by 16 bodies
+    (accel/blas.py: leaf-order vertices 36 and faces 4, wide nodes ~67, indices 12 and rest
+    points 6 per triangle of the shape) over 16, ~7.8; the per-body and per-segment rows
+    (~1 KB per body over 6,240 triangles) ~0.2. Measured 41.6 with wp.Mesh as the bottom
+    level (7.4). The bound, 46, leaves 4 B for those rows and for the pole's vertices
     (a sphere has slightly more than half a vertex per triangle), and fails for any
     table of 8 bytes per triangle more: a float64 copy of the normals or sizes kept
     beside the float32 ones, or vertex indices per body."""
@@ -74,15 +75,16 @@ def test_static_rigid_database_stays_within_its_bytes_per_triangle():
     r = Renderer(scene, frames=[0.0], width=16, height=16)
     r.render(0.0)
     tris = r.database.shapes.triangle_count
-    assert tris == 99_840 and len(r.database.bottom.meshes) == 1
+    assert tris == 99_840 and r.database.bottom.count == 1
     tables = rigid_tables(r.database)
     per_triangle = total_bytes(tables) / tris
     assert per_triangle <= 46.0, [(t.name, t.dtype, round(t.nbytes / tris, 1)) for t in tables[:8]]
     # The count sees the bottom level and every upload: a buffer left out would make the
     # bound meaningless.
     names = {t.name for t in tables}
-    assert {"wp.Mesh native (BVH nodes, parents, permutation, bounds)", "host shapes.tri_normal"} <= names
-    assert any(t.nbytes == (tris // 16) * WP_MESH_NATIVE_BYTES_PER_TRIANGLE for t in tables)
+    assert {"host bottom.tri_vert", "host bottom.node_lo", "host shapes.tri_normal"} <= names
+    bottom = sum(t.nbytes for t in tables if t.name.startswith("host bottom."))
+    assert bottom >= (tris // 16) * (36 + 4)  # at least the one shape's vertices and faces
 
 
 def test_float64_upload_of_float32_shapes_has_float64_tables():

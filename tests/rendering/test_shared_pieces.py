@@ -89,7 +89,7 @@ def test_a_turning_body_pieces_share_one_bottom_level(tmp_path, name):
     pieces = [i for i, b in enumerate(db.shapes.bodies) if b.prim_path == path]
     assert len(pieces) > 100
     assert len(set(db.shapes.body_shape[pieces].tolist())) == 1
-    assert len(db.bottom.meshes) == 2
+    assert db.bottom.count == 2
 
 
 @pytest.mark.parametrize("name", sorted(STAGES))
@@ -105,12 +105,18 @@ def test_the_shared_bottom_level_renders_as_per_piece_copies(tmp_path, name):
     frame = FRAMES[name]
     a = Renderer(shared, frames=[frame], width=W, height=H)
     b = Renderer(own, frames=[frame], width=W, height=H)
-    assert len(a.database.bottom.meshes) == 2 and len(b.database.bottom.meshes) > 100
+    assert a.database.bottom.count == 2 and b.database.bottom.count > 100
     ia, ib = a.render(frame), b.render(frame)
     moving = (ia.object_id > 1) | (ib.object_id > 1)  # the pieces' pixels: ids past the floor's (1)
     assert moving.sum() > 100
     same = ia.object_id == ib.object_id
-    assert (~same).sum() <= 3, int((~same).sum())
+    # Where two touching pieces meet, a ray along the seam hits both at one depth (to
+    # float32 rounding) and either may win: a tie, not an error (which one depends on the
+    # bottom level's traversal order). Seams cross most of the pieces' pixels here (hundreds
+    # of pieces over ~170 pixels), a ray within rounding of one is rare: ties stay a few.
+    tie = ~same & (np.abs(ia.depth - ib.depth) <= 1e-5 * np.maximum(np.abs(ib.depth), 1.0))
+    assert (~same & ~tie).sum() <= 3, int((~same & ~tie).sum())
+    assert tie.sum() <= 0.05 * moving.sum(), int(tie.sum())
     hit = same & (ia.object_id > 0)
     assert np.abs(ia.event_time[hit] - ib.event_time[hit]).max() <= 1e-5
     scale = float(ib.rgba[..., :3].max())  # UsdLux units: the lit floor's radiance is ~1e-5

@@ -31,7 +31,8 @@ SAH_MAX_LEAF = 4
 SAH_COST_TRAVERSE = 1.0
 #: A rigid body's motion segment costs a bottom-level query: a transform and a 3D BVH
 #: descent of a few node visits even when it misses (the top level, accel/instances.py).
-SAH_COST_INTERSECT = {"tet": 2.0, "prism": 1.0, "rigid": 8.0}
+#: A bottom level's triangle (accel/blas.py) costs one watertight float32 test.
+SAH_COST_INTERSECT = {"tet": 2.0, "prism": 1.0, "rigid": 8.0, "tri": 1.0}
 
 
 @dataclass(frozen=True, eq=False)

@@ -18,7 +18,10 @@ from warp_st.kernels.texture import make_textures
 from warp_st.kernels.trace import make_trace
 from warp_st.kernels.trace_rigid import make_trace_rigid
 
-__all__ = ["get_kernels", "Kernels"]
+__all__ = ["get_kernels", "Kernels", "PIXELS_PER_THREAD"]
+
+#: Pixels one kernel thread renders in turn (``render_pixels``).
+PIXELS_PER_THREAD = 64
 
 
 
@@ -89,6 +92,10 @@ def _make_render(scalar, k, trace, Geometry):
         strata: int
         shutter: scalar
         seed: int
+        # Film coordinates of the pixel centres' rays, (x_ndc h_ap / 2 + h_off) / focal per
+        # column and (y_ndc v_ap / 2 + v_off) / focal per row (``pixel_direction``).
+        col: wp.array(dtype=wp.float64)
+        row: wp.array(dtype=wp.float64)
 
     @wp.struct
     class Film:
@@ -134,6 +141,16 @@ def _make_render(scalar, k, trace, Geometry):
         return wp.length(dx + ((cam.gamma - scalar(1.0)) / vv) * wp.dot(v, dx) * v - cam.gamma * dt * v)
 
     @wp.func
+    def lens_direction(cam: Camera, d_cam: wp.vec3d) -> vec3:
+        """The lab look direction of camera-frame direction ``d_cam`` (float64, rounded
+        once to ``scalar`` before the aberration)."""
+        d = wp.normalize(cam.lab_from_camera * d_cam)
+        n_rest = vec3(scalar(d[0]), scalar(d[1]), scalar(d[2]))
+        if cam.moving != 0:
+            return aberrate(n_rest, cam.velocity, cam.gamma, cam.decoupled)
+        return n_rest
+
+    @wp.func
     def camera_direction(cam: Camera, px: scalar, py: scalar) -> vec3:
         """Pinhole look direction in the lab for film position (px, py) in pixels: in
         float64, rounded once to ``scalar`` before the aberration."""
@@ -143,23 +160,25 @@ def _make_render(scalar, k, trace, Geometry):
         y_ndc = one - (wp.float64(py) / wp.float64(cam.height)) * wp.float64(2.0)
         d_cam = wp.vec3d((x_ndc * cam.h_ap * half + cam.h_off) / cam.focal,
                          (y_ndc * cam.v_ap * half + cam.v_off) / cam.focal, -one)
-        d = wp.normalize(cam.lab_from_camera * d_cam)
-        n_rest = vec3(scalar(d[0]), scalar(d[1]), scalar(d[2]))
-        if cam.moving != 0:
-            return aberrate(n_rest, cam.velocity, cam.gamma, cam.decoupled)
-        return n_rest
+        return lens_direction(cam, d_cam)
+
+    @wp.func
+    def pixel_direction(cam: Camera, px: int, py: int) -> vec3:
+        """``camera_direction`` at pixel (px, py)'s centre, its film coordinates from the
+        host's tables (the same float64 operations, so the same bits: no divisions here)."""
+        return lens_direction(cam, wp.vec3d(cam.col[px], cam.row[py], wp.float64(-1.0)))
 
     @wp.func
     def four_velocity(v: vec3, gamma: scalar, decoupled: int) -> vec4:
-        if decoupled != 0:
-            return vec4(scalar(1.0), v[0], v[1], v[2])
-        return vec4(gamma, gamma * v[0], gamma * v[1], gamma * v[2])
+        # (1, v) decoupled, gamma (1, v) coupled; one select, not a vector built in two
+        # branches (the compiler stores such a vector through memory and the 8-byte
+        # load after its 4-byte stores stalls).
+        g = wp.where(decoupled != 0, scalar(1.0), gamma)
+        return vec4(g, g * v[0], g * v[1], g * v[2])
 
     @wp.func
     def null_dir(n: vec3, finite: int) -> vec4:
-        if finite != 0:
-            return vec4(scalar(-1.0), n[0], n[1], n[2])
-        return vec4(scalar(0.0), n[0], n[1], n[2])
+        return vec4(wp.where(finite != 0, scalar(-1.0), scalar(0.0)), n[0], n[1], n[2])
 
     @wp.func
     def trace_path(geo: Geometry, shd: Shading, cam: Camera, origin: vec4, n0: vec3):
@@ -292,110 +311,116 @@ def _make_render(scalar, k, trace, Geometry):
         return o, n
 
     @wp.kernel(enable_backward=False, module="unique")
-    def render_pixels(geo: Geometry, shd: Shading, cam: Camera, film: Film, offset: int):
-        pixel = wp.tid() + offset
-        px = pixel % cam.width
-        py = pixel / cam.width
-        # Ray 0 is the AOV ray: the pixel centre at the frame's camera time (also the
-        # beauty when there is one sample); rays 1..samples are the jittered samples.
-        # One call site of trace_path, so the compiler inlines it (with a second one it
-        # became an out-of-line call copying the Geometry and Shading structs per ray).
-        n = camera_direction(cam, scalar(px) + scalar(0.5), scalar(py) + scalar(0.5))
-        rays = int(1)
-        if cam.samples > 1:
-            rays = 1 + cam.samples
-        color = vec3(scalar(0.0))
-        alpha = scalar(0.0)
-        prim = int(-1)
-        s = scalar(0.0)
-        lam = vec4(scalar(0.0))
-        src_t = scalar(0.0)
-        src_b = int(0)
-        visits = int(0)
-        overflow = int(0)
-        sum_color = vec3(scalar(0.0))
-        sum_alpha = scalar(0.0)
-        for k in range(rays):
-            ray_o = vec4(scalar(0.0))
-            ray_n = n
-            if k > 0:
-                ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
-            c, a, p_k, s_k, lam_k, st_k, sb_k, ray_visits, ray_ovf = trace_path(geo, shd, cam, ray_o, ray_n)
-            visits += ray_visits
-            overflow = wp.max(overflow, ray_ovf)
-            if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
-                hit_id = int(0)
-                if p_k >= 0:
-                    hit_id = prim_triangle(geo, p_k) + 1
-                film.sample_id[pixel * cam.samples + wp.max(k - 1, 0)] = hit_id
-            if k == 0:
-                color = c
-                alpha = a
-                prim = p_k
-                s = s_k
-                lam = lam_k
-                src_t = st_k
-                src_b = sb_k
-            else:
-                sum_color = sum_color + c
-                sum_alpha = sum_alpha + a
-        if cam.samples > 1:
-            inv = scalar(1.0) / scalar(cam.samples)
-            color = sum_color * inv
-            alpha = sum_alpha * inv
-        film.visits[pixel] = visits
-        if overflow != 0:
-            film.overflow[0] = 1
-        bg = shd.background
-        if shd.sky.present != 0:
-            bg = vec3(scalar(0.0))  # the sky is in the colour already
-        film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
-        if prim < 0:
-            film.depth[pixel] = scalar(wp.inf)
-            film.event_time[pixel] = scalar(wp.nan)
-            film.proper_time[pixel] = scalar(wp.nan)
-            film.doppler[pixel] = scalar(wp.nan)
-            if shd.sky.present != 0:  # the dome's D = (k.u_cam)/(k.u_lab), k = (1, -n)
-                uc0 = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
-                film.doppler[pixel] = uc0[0]
-                if cam.finite != 0:
-                    film.doppler[pixel] = uc0[0] + n[0] * uc0[1] + n[1] * uc0[2] + n[2] * uc0[3]
-            film.object_id[pixel] = 0
-            film.source_time[pixel] = scalar(wp.nan)
-            film.bounces[pixel] = 0
-            return
-        dt = scalar(0.0)
-        if cam.finite != 0:
-            dt = -s
-        event = vec4(dt, s * n[0], s * n[1], s * n[2])
-        film.depth[pixel] = rest_distance(cam, dt, vec3(event[1], event[2], event[3]))
-        film.event_time[pixel] = event[0]
-        film.source_time[pixel] = src_t
-        film.bounces[pixel] = src_b
+    def render_pixels(geo: Geometry, shd: Shading, cam: Camera, film: Film, offset: int, end: int):
+        # Pixels offset + tid * PIXELS_PER_THREAD onwards, up to ``end`` (exclusive), in
+        # turn: a CPU launch copies the kernel's struct arguments (kilobytes) per
+        # thread, and so does every call that takes them, inlined or not (Warp passes
+        # structs by value): the loop is the kernel's own, around the pixel's code.
+        first = offset + wp.tid() * PIXELS_PER_THREAD
+        last = wp.min(first + PIXELS_PER_THREAD, end)
+        for pixel in range(first, last):
+            px = pixel % cam.width
+            py = pixel / cam.width
+            # Ray 0 is the AOV ray: the pixel centre at the frame's camera time (also the
+            # beauty when there is one sample); rays 1..samples are the jittered samples.
+            # One call site of trace_path, so the compiler inlines it (with a second one it
+            # became an out-of-line call copying the Geometry and Shading structs per ray).
+            n = pixel_direction(cam, px, py)
+            rays = int(1)
+            if cam.samples > 1:
+                rays = 1 + cam.samples
+            color = vec3(scalar(0.0))
+            alpha = scalar(0.0)
+            prim = int(-1)
+            s = scalar(0.0)
+            lam = vec4(scalar(0.0))
+            src_t = scalar(0.0)
+            src_b = int(0)
+            visits = int(0)
+            overflow = int(0)
+            sum_color = vec3(scalar(0.0))
+            sum_alpha = scalar(0.0)
+            for k in range(rays):
+                ray_o = vec4(scalar(0.0))
+                ray_n = n
+                if k > 0:
+                    ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
+                c, a, p_k, s_k, lam_k, st_k, sb_k, ray_visits, ray_ovf = trace_path(geo, shd, cam, ray_o, ray_n)
+                visits += ray_visits
+                overflow = wp.max(overflow, ray_ovf)
+                if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
+                    hit_id = int(0)
+                    if p_k >= 0:
+                        hit_id = prim_triangle(geo, p_k) + 1
+                    film.sample_id[pixel * cam.samples + wp.max(k - 1, 0)] = hit_id
+                if k == 0:
+                    color = c
+                    alpha = a
+                    prim = p_k
+                    s = s_k
+                    lam = lam_k
+                    src_t = st_k
+                    src_b = sb_k
+                else:
+                    sum_color = sum_color + c
+                    sum_alpha = sum_alpha + a
+            if cam.samples > 1:
+                inv = scalar(1.0) / scalar(cam.samples)
+                color = sum_color * inv
+                alpha = sum_alpha * inv
+            film.visits[pixel] = visits
+            if overflow != 0:
+                film.overflow[0] = 1
+            bg = shd.background
+            if shd.sky.present != 0:
+                bg = vec3(scalar(0.0))  # the sky is in the colour already
+            film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
+            if prim < 0:
+                film.depth[pixel] = scalar(wp.inf)
+                film.event_time[pixel] = scalar(wp.nan)
+                film.proper_time[pixel] = scalar(wp.nan)
+                film.doppler[pixel] = scalar(wp.nan)
+                if shd.sky.present != 0:  # the dome's D = (k.u_cam)/(k.u_lab), k = (1, -n)
+                    uc0 = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
+                    film.doppler[pixel] = uc0[0]
+                    if cam.finite != 0:
+                        film.doppler[pixel] = uc0[0] + n[0] * uc0[1] + n[1] * uc0[2] + n[2] * uc0[3]
+                film.object_id[pixel] = 0
+                film.source_time[pixel] = scalar(wp.nan)
+                film.bounces[pixel] = 0
+                continue
+            dt = scalar(0.0)
+            if cam.finite != 0:
+                dt = -s
+            event = vec4(dt, s * n[0], s * n[1], s * n[2])
+            film.depth[pixel] = rest_distance(cam, dt, vec3(event[1], event[2], event[3]))
+            film.event_time[pixel] = event[0]
+            film.source_time[pixel] = src_t
+            film.bounces[pixel] = src_b
 
-        body = shd.tri_body[prim_triangle(geo, prim)]
-        bo = shd.body_origin[body]
-        v = shd.body_velocity[body]
-        dec = shd.body_decoupled[body]
-        rel_t = event[0] - bo[0]
-        tau = rel_t
-        if dec == 0:
-            rel_x = vec3(event[1] - bo[1], event[2] - bo[2], event[3] - bo[3])
-            tau = shd.body_gamma[body] * (rel_t - wp.dot(v, rel_x))
-        film.proper_time[pixel] = tau
+            body = shd.tri_body[prim_triangle(geo, prim)]
+            bo = shd.body_origin[body]
+            v = shd.body_velocity[body]
+            dec = shd.body_decoupled[body]
+            rel_t = event[0] - bo[0]
+            tau = rel_t
+            if dec == 0:
+                rel_x = vec3(event[1] - bo[1], event[2] - bo[2], event[3] - bo[3])
+                tau = shd.body_gamma[body] * (rel_t - wp.dot(v, rel_x))
+            film.proper_time[pixel] = tau
 
-        # D = (k.u_cam)/(k.u_body), k = (1, -n): -k.u = u_t + n.u_x. With infinite
-        # light speed only time dilation is left: the limit is u_cam_t / u_body_t.
-        u, gamma_u = point_velocity(geo, shd, prim, lam, body, event)  # the emitting point's (docs/spec.md §2.1, §2.2)
-        ub = four_velocity(u, gamma_u, dec)
-        uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
-        dop = uc[0] / ub[0]
-        if cam.finite != 0:
-            dop = (uc[0] + n[0] * uc[1] + n[1] * uc[2] + n[2] * uc[3]) / (
-                ub[0] + n[0] * ub[1] + n[1] * ub[2] + n[2] * ub[3]
-            )
-        film.doppler[pixel] = dop
-        film.object_id[pixel] = body + 1
+            # D = (k.u_cam)/(k.u_body), k = (1, -n): -k.u = u_t + n.u_x. With infinite
+            # light speed only time dilation is left: the limit is u_cam_t / u_body_t.
+            u, gamma_u = point_velocity(geo, shd, prim, lam, body, event)  # the emitting point's (docs/spec.md §2.1, §2.2)
+            ub = four_velocity(u, gamma_u, dec)
+            uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
+            dop = uc[0] / ub[0]
+            if cam.finite != 0:
+                dop = (uc[0] + n[0] * uc[1] + n[1] * uc[2] + n[2] * uc[3]) / (
+                    ub[0] + n[0] * ub[1] + n[1] * ub[2] + n[2] * ub[3]
+                )
+            film.doppler[pixel] = dop
+            film.object_id[pixel] = body + 1
 
     return Shading, Camera, Film, render_pixels
 

@@ -4,7 +4,7 @@ Two levels (``warp_st.spacetime.rigid``, ``warp_st.accel.instances``):
 
 - top: the 4-wide 4D BVH (``traverse.py``) over motion segments, each a body over a
   lab-time span [t_lo, t_hi] with its 4D box;
-- bottom: one ``wp.Mesh`` per distinct shape, its triangles at rest in body coordinates
+- bottom: one 4-wide 3D BVH per distinct shape (``blas.py``), its triangles at rest in body coordinates
   (an animated body's pieces share one: ``body_map`` turns the ray into it).
 
 A leaf's segment takes the ray E(s) = O + s d into its body's coordinates: with the
@@ -44,6 +44,7 @@ root lies behind the ray unless it leaves into the inside (every shape is convex
 
 import warp as wp
 
+from warp_st.kernels.blas import make_blas_query
 from warp_st.kernels.layout import ANALYTIC
 from warp_st.kernels.quadrics import make_quadrics
 from warp_st.kernels.traverse import make_box_ops, make_traverse
@@ -53,13 +54,14 @@ __all__ = ["make_trace_rigid"]
 
 def make_trace_rigid(scalar):
     """The rigid path's Geometry and traversal in ``scalar``. The bottom levels'
-    ``wp.Mesh`` queries are float32 whatever ``scalar`` is (``at``): in float64 the path
+    bottom-level queries are float32 whatever ``scalar`` is (``at``): in float64 the path
     is exact only for analytic shapes, which is why the renderer takes it in float64 only
     for scenes of exact quadrics (``rendering.renderer``)."""
     vec2 = wp.types.vector(2, scalar)
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
     vec16 = wp.types.vector(16, scalar)
+    vec12f = wp.types.vector(12, wp.float32)
     solid_interval = make_quadrics()
     fmin, fmax, safe_inv, SLAB_GROW = make_box_ops(scalar)
     BIG = 1.0e30
@@ -78,9 +80,9 @@ def make_trace_rigid(scalar):
         body_vert_base: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
         body_object: wp.array(dtype=wp.int32)  # the object of each body (an animated body's pieces share one)
-        # Bodies: bottom level (wp.Mesh id of the body's shape), first global triangle,
-        # velocity and rest_from_lab (A^-1) in float64 (see ``to_body``).
-        body_mesh: wp.array(dtype=wp.uint64)
+        # Bodies: bottom level (the root wide node of the body's shape in blas_*, -1:
+        # none), first global triangle, velocity and rest_from_lab (A^-1) in float64.
+        body_blas: wp.array(dtype=wp.int32)
         body_tri_base: wp.array(dtype=wp.int32)
         body_velocity: wp.array(dtype=wp.vec3d)
         body_rest: wp.array(dtype=wp.mat33d)
@@ -111,6 +113,15 @@ def make_trace_rigid(scalar):
         node_link: wp.array(dtype=wp.vec4i)
         root_lo: vec4
         root_hi: vec4
+        # The bottom levels (accel/blas.py, kernels/blas.py): every shape's 4-wide 3D
+        # BVH, its triangles' vertices in leaf order and their faces in the shape.
+        blas_lo: wp.array(dtype=vec12f)
+        blas_hi: wp.array(dtype=vec12f)
+        blas_link: wp.array(dtype=wp.vec4i)
+        blas_vert: wp.array(dtype=wp.vec3)
+        blas_face: wp.array(dtype=wp.int32)
+
+    blas_query = make_blas_query(Geometry)
 
     @wp.struct
     class Ray:
@@ -192,7 +203,7 @@ def make_trace_rigid(scalar):
 
     @wp.func
     def at(p: wp.vec3d, d: wp.vec3d, s: wp.float64) -> wp.vec3:
-        """The ray's point at s, as a float32 ``wp.Mesh`` query takes it."""
+        """The ray's point at s, as a float32 bottom-level query takes it."""
         q = p + d * s
         return wp.vec3(wp.float32(q[0]), wp.float32(q[1]), wp.float32(q[2]))
 
@@ -244,7 +255,7 @@ def make_trace_rigid(scalar):
                     pm = g.body_map[body] * (p - g.body_map_shift[body])
                     dm = g.body_map[body] * d
                 direction = wp.vec3(wp.float32(dm[0]), wp.float32(dm[1]), wp.float32(dm[2]))
-                mesh = g.body_mesh[body]
+                root = g.body_blas[body]
                 base = g.body_tri_base[body]
                 if g.body_quadric[body] != 0:
                     s, normal = quadric_hit(g, body, p, d, wp.float64(s_lo), wp.float64(s_hi))
@@ -254,36 +265,40 @@ def make_trace_rigid(scalar):
                         best_lam = vec4(normal[0], normal[1], normal[2], scalar(ANALYTIC))
                         if any_hit != 0:
                             return best, best_prim, best_lam
-                elif any_hit != 0 and own == 0:
-                    e0 = wp.max(e0, wp.float64(s_lo))
-                    if e0 < e1:
-                        if wp.mesh_query_ray_anyhit(mesh, at(pm, dm, e0), direction, wp.float32(e1 - e0)):
-                            return s_hi, base, vec4(scalar(0.0))
-                else:
-                    # Start at the body's rest box. A hit on ``skip_tri`` is stepped over;
-                    # one before the span (a later lab time) is dropped and the query
-                    # repeated from past it: from the lifetime's end when the hit lies
-                    # beyond it, else from the span.
+                elif root >= 0:
+                    # Start at the body's rest box. A shadow ray (any hit) on another
+                    # body needs one query. Otherwise a hit on ``skip_tri`` is stepped
+                    # over; one before the span (a later lab time) is dropped and the
+                    # query repeated from past it: from the lifetime's end when the hit
+                    # lies beyond it, else from the span. (One call site: it is inlined.)
+                    shadow = int(0)
+                    if any_hit != 0 and own == 0:
+                        shadow = 1
+                        e0 = wp.max(e0, wp.float64(s_lo))
                     s_life = wp.float64(o[0]) - g.body_end[body]
-                    for attempt in range(4):
-                        if e0 < e1:
-                            q = wp.mesh_query_ray(mesh, at(pm, dm, e0), direction, wp.float32(e1 - e0))
-                            if q.result:
-                                s = e0 + wp.float64(q.t)
-                                if base + q.face == skip_tri:
-                                    e0 = s + wp.float64(SKIP_STEP) * (wp.float64(1.0) + wp.abs(s))
-                                elif s >= wp.float64(s_lo):
-                                    best = scalar(s)
-                                    best_prim = base + q.face
-                                    best_lam = vec4(scalar(q.u), scalar(q.v), scalar(1.0) - scalar(q.u) - scalar(q.v),
-                                                    scalar(0.0))
-                                    e1 = wp.float64(-1.0)
-                                elif s < s_life:
-                                    e0 = s_life
-                                else:
-                                    e0 = wp.float64(s_lo)
-                            else:
+                    attempt = int(0)  # a while loop: a constant range would be unrolled
+                    while attempt < 4 and e0 < e1:
+                        attempt += 1
+                        found, qt, qu, qv, face = blas_query(g, root, at(pm, dm, e0), direction, wp.float32(e1 - e0),
+                                                             shadow)
+                        if found == 0:
+                            e1 = wp.float64(-1.0)
+                        elif shadow != 0:
+                            return s_hi, base, vec4(scalar(0.0))
+                        else:
+                            s = e0 + wp.float64(qt)
+                            if base + face == skip_tri:
+                                e0 = s + wp.float64(SKIP_STEP) * (wp.float64(1.0) + wp.abs(s))
+                            elif s >= wp.float64(s_lo):
+                                best = scalar(s)
+                                best_prim = base + face
+                                best_lam = vec4(scalar(qu), scalar(qv), scalar(1.0) - scalar(qu) - scalar(qv),
+                                                scalar(0.0))
                                 e1 = wp.float64(-1.0)
+                            elif s < s_life:
+                                e0 = s_life
+                            else:
+                                e0 = wp.float64(s_lo)
                     if any_hit != 0 and best_prim >= 0:
                         return best, best_prim, best_lam
         return best, best_prim, best_lam

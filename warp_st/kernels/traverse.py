@@ -25,7 +25,7 @@ import warp as wp
 
 from warp_st.kernels.layout import LINK_MASK, LINK_SHIFT, MAX_WIDE_DEPTH
 
-__all__ = ["make_traverse", "make_box_ops", "STACK_SIZE"]
+__all__ = ["make_traverse", "make_box_ops", "make_sort4", "STACK_SIZE"]
 
 #: Traversal stack entries: a visit pushes at most three children, so three per level
 #: of the wide tree (bvh_wide.MAX_WIDE_DEPTH) bound it. Zero-initialised per ray, so
@@ -61,6 +61,35 @@ def make_box_ops(scalar):
         return scalar(1.0) / x
 
     return fmin, fmax, safe_inv, SLAB_GROW
+
+
+def make_sort4(scalar):
+    """``sort4(entries, links)``: a wide node's four children in ascending order of
+    entry, their links alongside (a 5-exchange network)."""
+    vec4 = wp.types.vector(4, scalar)
+
+    @wp.func
+    def order2(e: vec4, l: wp.vec4i, i: int, j: int):
+        """Compare-exchange of entries i < j (with their links) into ascending order."""
+        if e[j] < e[i]:
+            t = e[i]
+            e[i] = e[j]
+            e[j] = t
+            m = l[i]
+            l[i] = l[j]
+            l[j] = m
+        return e, l
+
+    @wp.func
+    def sort4(e: vec4, l: wp.vec4i):
+        e, l = order2(e, l, 0, 1)
+        e, l = order2(e, l, 2, 3)
+        e, l = order2(e, l, 0, 2)
+        e, l = order2(e, l, 1, 3)
+        e, l = order2(e, l, 1, 2)
+        return e, l
+
+    return sort4
 
 
 def make_traverse(scalar, Geometry, prepare, leaf):
@@ -101,17 +130,7 @@ def make_traverse(scalar, Geometry, prepare, leaf):
             far[k] = fmin(fmin(fmin(f[k], f[4 + k]), fmin(f[8 + k], f[12 + k])) * scalar(SLAB_GROW), s_max)
         return near, far
 
-    @wp.func
-    def order2(e: vec4, l: wp.vec4i, i: int, j: int):
-        """Compare-exchange of entries i < j (with their links) into ascending order."""
-        if e[j] < e[i]:
-            t = e[i]
-            e[i] = e[j]
-            e[j] = t
-            m = l[i]
-            l[i] = l[j]
-            l[j] = m
-        return e, l
+    sort4 = make_sort4(scalar)
 
     @wp.func
     def trace(
@@ -188,11 +207,7 @@ def make_traverse(scalar, Geometry, prepare, leaf):
                         hits += 1
                     else:
                         e[k] = scalar(INF)
-                e, links = order2(e, links, 0, 1)
-                e, links = order2(e, links, 2, 3)
-                e, links = order2(e, links, 0, 2)
-                e, links = order2(e, links, 1, 3)
-                e, links = order2(e, links, 1, 2)
+                e, links = sort4(e, links)
                 if hits > 0:
                     next_link = links[0]
                     if sp + hits - 1 <= STACK_SIZE:

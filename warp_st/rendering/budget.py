@@ -55,14 +55,11 @@ BYTES_PER_PIXEL = (4 * 4 + 5 * 4 + 3 * 4) + (4 * 4 + 2 * 8 + 5 * 4)
 #: frame span changes, no body sharing its shape (rendering.database_bytes counts the
 #: real one): the shading tables, one copy the host and the device share (normal
 #: float32 x 3, size float32, smooth / body / material int32), the shape's vertex
-#: indices (int32 x 3, the wp.Mesh's too), the wp.Mesh's native memory
-#: (database_bytes.WP_MESH_NATIVE_BYTES_PER_TRIANGLE: 100) and 16 for the build's
-#: transients (each body's triangles, held until taken). Measured on 1.04M triangles of 16
-#: shapes, 0.5 vertices per triangle: peak RSS growth 107 B per triangle against this
-#: estimate's 168 (Warp leaves most of its node allocation untouched;
-#: docs/design/database-size.md).
-BYTES_PER_RIGID_TRIANGLE = (12 + 4 + 12) + 12 + 100 + 16
-#: Per vertex: shading normal (float32 x 3) and the shape's rest point (float32 x 3, the wp.Mesh's).
+#: indices (int32 x 3), the bottom level (accel/blas.py: three float32 vertices, the face
+#: int32, and about 0.6 wide nodes of 112 bytes per triangle of a shape) and 16 for the
+#: build's transients (each body's triangles, held until taken).
+BYTES_PER_RIGID_TRIANGLE = (12 + 4 + 12) + 12 + (36 + 4 + 68) + 16
+#: Per vertex: shading normal (float32 x 3) and the shape's rest point (float32 x 3).
 BYTES_PER_RIGID_VERTEX = 12 + 12
 
 

@@ -64,6 +64,12 @@ def make_camera(
     c.strata = max(1, int(np.ceil(np.sqrt(samples))))
     c.shutter = float(shutter)
     c.seed = int(seed)
+    # The kernel's camera_direction at the pixel centres, in its order of float64
+    # operations (the centre px + 0.5 is exact in float32, as the kernel forms it).
+    x_ndc = (np.arange(width, dtype=np.float64) + 0.5) / float(width) * 2.0 - 1.0
+    y_ndc = 1.0 - (np.arange(height, dtype=np.float64) + 0.5) / float(height) * 2.0
+    c.col = wp.array((x_ndc * c.h_ap * 0.5 + c.h_off) / c.focal, dtype=wp.float64, device="cpu")
+    c.row = wp.array((y_ndc * c.v_ap * 0.5 + c.v_off) / c.focal, dtype=wp.float64, device="cpu")
     return c
 
 

@@ -2,8 +2,8 @@
 
 ``rigid_tables`` walks every array a rigid ``database_cache.Database`` keeps alive: the
 host tables of its shapes (``spacetime.rigid.RigidShapes``), motion segments and top
-level, the bottom levels' ``wp.Mesh`` (their points and indices, and the native memory
-Warp allocates for each, ``WP_MESH_NATIVE_BYTES_PER_TRIANGLE``), the uploaded arrays of
+level, the bottom levels' tables (``accel/blas.py``: wide nodes, leaf-order vertices and
+faces), the uploaded arrays of
 each precision (``device_rigid.RigidArrays``) and the recentred geometries it caches.
 Each buffer is counted once, under the first name that reaches it: a device array made
 over a host table without a copy costs nothing more. The scene's own bodies and surfaces
@@ -17,13 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-__all__ = ["Table", "rigid_tables", "total_bytes", "WP_MESH_NATIVE_BYTES_PER_TRIANGLE"]
-
-#: Warp 1.19's CPU wp.Mesh of n triangles allocates, besides the points and indices it is
-#: given (native/mesh.cpp, native/bvh.cpp): 2n - 1 nodes of two 16-byte halves and a
-#: parent index each, whatever the leaf size (64 + 8 bytes per triangle), the primitive
-#: permutation (4) and each triangle's bounds, kept for refits (2 x 12).
-WP_MESH_NATIVE_BYTES_PER_TRIANGLE = 2 * (2 * 16 + 4) + 4 + 2 * 12
+__all__ = ["Table", "rigid_tables", "total_bytes"]
 
 
 @dataclass(frozen=True)
@@ -92,15 +86,8 @@ def rigid_tables(db) -> list[Table]:
             c.add(f"host shapes.{f.name}", getattr(db.shapes, f.name))
     c.add("host segments", db.segments)
     c.add("host top level", db.bvh)
-    bottom = db.bottom
-    c.add("host bottom.body_mesh", bottom.body_mesh)
-    for mesh in bottom.meshes:
-        c.add("wp.Mesh points", mesh.points)
-        c.add("wp.Mesh indices", mesh.indices)
-    tris = sum(len(m.indices) // 3 for m in bottom.meshes)
-    if tris:
-        c.tables.append(Table("wp.Mesh native (BVH nodes, parents, permutation, bounds)", "bytes", tris,
-                              tris * WP_MESH_NATIVE_BYTES_PER_TRIANGLE))
+    for name, value in vars(db.bottom).items():
+        c.add(f"host bottom.{name}", value)
     for precision, static in db.static.items():
         for name, value in vars(static).items():
             if name != "bottom":

@@ -26,8 +26,8 @@ Lifetime: entries live as long as the Scene object (a ``weakref.WeakKeyDictionar
 keyed by it): dropping the last reference to a scene frees them. ``clear(scene)`` (or
 ``clear()`` for every scene) frees them earlier.
 
-Rigid bodies (the default path): the shapes and their bottom levels (one ``wp.Mesh`` per
-distinct shape) depend on the tessellation only and are cached apart from the top
+Rigid bodies (the default path): the shapes and their bottom levels (one 3D BVH per
+distinct shape, ``accel/blas.py``) depend on the tessellation only and are cached apart from the top
 level, which the windows decide; a database for other frames rebuilds only the top
 level (O(bodies)).
 

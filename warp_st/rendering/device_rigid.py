@@ -1,7 +1,7 @@
 """NumPy -> Warp for the two-level rigid database (``kernels/trace_rigid.py``).
 
-Frame-independent (``RigidArrays``): the shading tables, the bottom levels' mesh ids per
-body, each body's first triangle, velocity and rest_from_lab map, the segments' bodies
+Frame-independent (``RigidArrays``): the shading tables, the bottom levels (accel/blas.py) and
+each body's root in them, each body's first triangle, velocity and rest_from_lab map, the segments' bodies
 in top-level leaf order and the top level's links. Per frame (``make_rigid_geometry``):
 the bodies' frame events, the segments' spans and boxes and the top level's boxes, recentred on
 the camera event in float64 and only then rounded (boxes outward): O(segments), so a
@@ -35,11 +35,17 @@ class RigidArrays(ShadingTables):
         np_scalar = np.float32 if k.scalar == wp.float32 else np.float64
         tables = shading_tables(shapes, np_scalar)
         super().__init__(k, tables)
-        self.bottom = bottom  # keeps the meshes (and so their ids) alive
-        self.shape_vidx = shared(shapes.shape_vidx, np.int32, wp.vec3i)  # the bottom levels' indices too
+        self.bottom = bottom  # its tables back the blas_* arrays
+        self.shape_vidx = shared(shapes.shape_vidx, np.int32, wp.vec3i)
         self.body_shape_tri = wp.array(shapes.body_shape_tri, dtype=wp.int32, device=_DEVICE)
         self.body_vert_base = wp.array(shapes.body_vert_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
-        self.body_mesh = wp.array(bottom.body_mesh, dtype=wp.uint64, device=_DEVICE)
+        self.body_blas = wp.array(bottom.body_root, dtype=wp.int32, device=_DEVICE)
+        vec12 = wp.types.vector(12, wp.float32)  # the bottom levels' own tables, over their memory
+        self.blas_lo = shared(bottom.node_lo, np.float32, vec12)
+        self.blas_hi = shared(bottom.node_hi, np.float32, vec12)
+        self.blas_link = shared(bottom.node_link, np.int32, wp.vec4i)
+        self.blas_vert = shared(bottom.tri_vert, np.float32, wp.vec3)
+        self.blas_face = shared(bottom.tri_face, np.int32, wp.int32)
         self.body_tri_base = wp.array(shapes.body_tri_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.body_rest = wp.array(shapes.rest_from_lab, dtype=wp.mat33d, device=_DEVICE)
         self.body_end = np.array([b.lifetime[1] for b in shapes.bodies], dtype=np.float64)
@@ -68,10 +74,10 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     g = k.Geometry()
     ns = static.np_scalar
     order = static.order
-    for name in ("shape_vidx", "body_shape_tri", "body_vert_base", "tri_body", "body_object", "body_mesh",
+    for name in ("shape_vidx", "body_shape_tri", "body_vert_base", "tri_body", "body_object", "body_blas",
                  "body_tri_base", "body_rest", "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi",
                  "seg_body", "body_quadric", "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map",
-                 "body_map_shift"):
+                 "body_map_shift", "blas_lo", "blas_hi", "blas_link", "blas_vert", "blas_face"):
         setattr(g, name, getattr(static, name))
     g.body_velocity = static.body_velocity64
     vec2 = wp.types.vector(2, k.scalar)

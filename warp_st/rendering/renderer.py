@@ -24,6 +24,7 @@ from warp_st.core.conventions import DEFAULT_RESOLUTION, LightSpeed, Precision
 from warp_st.core.limits import resolve_max_memory
 from warp_st.core.scene import CameraState, Scene, SceneError
 from warp_st.kernels.layout import PRIMITIVES
+from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
 from warp_st.output.channels import LOW_TIME_CHANNELS, join_time, split_time
 from warp_st.output.cryptomatte import image_layers, resolve_layers
 from warp_st.output.film import Image, quantize_time
@@ -192,14 +193,14 @@ class Renderer:
         self.doppler_color = bool(settings.doppler_color)
         self.searchlight = bool(settings.searchlight)
         self.precision = Precision(settings.precision or Precision.FLOAT32)
-        # The rigid path's wp.Mesh queries are float32: in float64 it serves only scenes
+        # The rigid path's bottom-level queries are float32: in float64 it serves only scenes
         # whose every body is an exact quadric (then it is exact in float64).
         all_exact = quadrics != "tessellated" and all_exact_quadrics(scene)
         primitive = deform_primitive(scene, primitive)  # deforming bodies: tetrahedra (docs/spec.md §2.2)
         if primitive is None:
             primitive = "rigid" if self.precision == Precision.FLOAT32 or all_exact else "prism"
         if primitive == "rigid" and self.precision != Precision.FLOAT32 and not all_exact:
-            raise SceneError.at(src, None, "primitive", "rigid traces meshes in float32 (wp.Mesh): in float64 only "
+            raise SceneError.at(src, None, "primitive", "rigid traces meshes in float32: in float64 only "
                                                         "scenes of exact quadrics; use prism or tet")
         if primitive == "rigid" and sweep_fraction is not None:
             raise ValueError("sweep_fraction sets the extrusion's time segments; the rigid path has none "
@@ -483,7 +484,9 @@ class Renderer:
         tiles = [(o, min(TILE_PIXELS, n_pix - o)) for o in range(0, n_pix, TILE_PIXELS)]
 
         def launch(tile):
-            wp.launch(k.render_pixels, dim=tile[1], inputs=[geo, shd, kcam, film, tile[0]], device="cpu")
+            threads = -(-tile[1] // PIXELS_PER_THREAD)
+            wp.launch(k.render_pixels, dim=threads, inputs=[geo, shd, kcam, film, tile[0], tile[0] + tile[1]],
+                      device="cpu")
 
         t_kernel = time.perf_counter()
         n_threads = max(1, int(threads or self.threads))

@@ -1,0 +1,367 @@
+"""The bottom level (accel/blas.py, kernels/blas.py) against brute force and wp.Mesh.
+
+Law: the closest crossing of a float32 ray p + t d (t in [0, t_max]) with a shape's
+triangles. Oracles, on every shipped stage's shapes and on hand-made ones with
+degenerate triangles:
+
+- brute force in float64 over every triangle (Moeller-Trumbore, no BVH): the same rays
+  hit, the same t to float32 rounding (the test itself is float32: the hit moves by a
+  few ulps of the coordinates across the surface, so along the ray by that over
+  cos(theta), and by the triangle's aspect ratio; |t - t64| |cos theta| <= 1e-5
+  (|p| + t |d|) aspect, ~80 ulps), and the same
+  triangle unless the float64 hit lies within rounding of that triangle's edge (there
+  either neighbour is right);
+- ``wp.Mesh`` over the same triangles, whose test is the same algorithm with fused
+  products: the same hits where neither is within rounding of an edge;
+- any-hit: a hit exactly when the closest-hit query finds one;
+- watertightness: rays aimed exactly at the shared vertices and edge points of closed
+  meshes (a tessellated sphere, a cube) never pass through.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import warp as wp
+
+from warp_st.accel.blas import BottomLevels
+from warp_st.core import tessellate
+from warp_st.kernels import get_kernels
+from warp_st.kernels.blas import make_blas_query
+from warp_st.rendering.warp_init import init_warp
+
+ROOT = Path(__file__).resolve().parents[2]
+VEC12 = wp.types.vector(12, wp.float32)
+#: Conditioned t error bound (see the module docstring and ``_t_error``): ~80 ulps.
+T_TOL = 1.0e-5
+#: A float64 hit this close to an edge of its triangle (relative to the coordinates,
+#: over cos(theta)) may be found on the neighbour, or missed at a silhouette, by a float32
+#: test: ~8 float32 ulps.
+EDGE_TOL = 1.0e-6
+
+
+#: The rigid path's Geometry; only its bottom-level arrays are set here.
+Blas = get_kernels("float32", "rigid").Geometry
+_query = make_blas_query(Blas)
+
+
+@wp.kernel(enable_backward=False, module="unique")
+def _blas_rays(g: Blas, root: int, p: wp.array(dtype=wp.vec3), d: wp.array(dtype=wp.vec3), t_max: float,
+               any_hit: int, face: wp.array(dtype=wp.int32), t: wp.array(dtype=float), uv: wp.array(dtype=wp.vec2)):
+    i = wp.tid()
+    hit, tt, u, v, f = _query(g, root, p[i], d[i], t_max, any_hit)
+    face[i] = wp.where(hit != 0, f, -1)
+    t[i] = tt
+    uv[i] = wp.vec2(u, v)
+
+
+@wp.kernel(enable_backward=False, module="unique")
+def _mesh_rays(mesh: wp.uint64, p: wp.array(dtype=wp.vec3), d: wp.array(dtype=wp.vec3), t_max: float,
+               face: wp.array(dtype=wp.int32), t: wp.array(dtype=float)):
+    i = wp.tid()
+    q = wp.mesh_query_ray(mesh, p[i], d[i], t_max)
+    face[i] = wp.where(q.result, q.face, -1)
+    t[i] = wp.where(q.result, q.t, t_max)
+
+
+class Shape:
+    """One shape's bottom level (as the renderer builds it) and its float32 triangles."""
+
+    def __init__(self, points, triangles):
+        init_warp()
+        self.points = np.asarray(points, np.float32)
+        self.triangles = np.asarray(triangles, np.int64).reshape(-1, 3)
+
+        class _Shapes:  # what BottomLevels reads of spacetime.rigid.RigidShapes
+            shape_rest = [self.points]
+            shape_triangles = [self.triangles]
+            body_shape = np.array([0])
+
+        self.bottom = BottomLevels(_Shapes)
+        self.g = Blas()
+        for name, attr, dtype in (("blas_lo", "node_lo", VEC12), ("blas_hi", "node_hi", VEC12),
+                                  ("blas_link", "node_link", wp.vec4i), ("blas_vert", "tri_vert", wp.vec3),
+                                  ("blas_face", "tri_face", wp.int32)):
+            setattr(self.g, name, wp.array(getattr(self.bottom, attr), dtype=dtype, device="cpu"))
+
+    def query(self, p, d, t_max=1.0e30, any_hit=False):
+        n = len(p)
+        face = wp.zeros(n, dtype=wp.int32, device="cpu")
+        t = wp.zeros(n, dtype=float, device="cpu")
+        uv = wp.zeros(n, dtype=wp.vec2, device="cpu")
+        wp.launch(_blas_rays, dim=n, inputs=[self.g, int(self.bottom.body_root[0]), _vec3(p), _vec3(d),
+                                              float(t_max), int(any_hit), face, t, uv], device="cpu")
+        return face.numpy(), t.numpy().astype(np.float64), uv.numpy()
+
+    def mesh_query(self, p, d, t_max=1.0e30):
+        mesh = wp.Mesh(points=wp.array(self.points, dtype=wp.vec3, device="cpu"),
+                       indices=wp.array(self.triangles.reshape(-1).astype(np.int32), dtype=wp.int32, device="cpu"))
+        n = len(p)
+        face = wp.zeros(n, dtype=wp.int32, device="cpu")
+        t = wp.zeros(n, dtype=float, device="cpu")
+        wp.launch(_mesh_rays, dim=n, inputs=[mesh.id, _vec3(p), _vec3(d), float(t_max), face, t], device="cpu")
+        return face.numpy(), t.numpy().astype(np.float64)
+
+    def brute(self, p, d, t_max=1.0e30):
+        """float64 closest hit over every triangle: (face or -1, t, barycentrics (N, 3))."""
+        tri = self.points.astype(np.float64)[self.triangles]  # (T, 3, 3)
+        a, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+        p = np.asarray(p, np.float32).astype(np.float64)
+        d = np.asarray(d, np.float32).astype(np.float64)
+        face = np.full(len(p), -1)
+        best = np.full(len(p), float(t_max))
+        bary = np.zeros((len(p), 3))
+        for lo in range(0, len(p), 256):
+            pp, dd = p[lo:lo + 256, None], d[lo:lo + 256, None]
+            h = np.cross(dd, e2[None])
+            det = np.sum(e1[None] * h, axis=-1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                inv = 1.0 / det
+                s = pp - a[None]
+                u = np.sum(s * h, axis=-1) * inv
+                q = np.cross(s, e1[None])
+                v = np.sum(dd * q, axis=-1) * inv
+                t = np.sum(e2[None] * q, axis=-1) * inv
+            ok = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t >= 0) & (t <= t_max)
+            t = np.where(ok, t, np.inf)
+            j = np.argmin(t, axis=1)
+            rows = np.arange(len(j))
+            hit = np.isfinite(t[rows, j])
+            face[lo:lo + 256] = np.where(hit, j, -1)
+            best[lo:lo + 256] = np.where(hit, t[rows, j], t_max)
+            bary[lo:lo + 256] = np.stack([1 - u[rows, j] - v[rows, j], u[rows, j], v[rows, j]], axis=1)
+        return face, best, bary
+
+    def cos(self, face, d):
+        tri = self.points.astype(np.float64)[self.triangles[face]]
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+        return np.abs(np.sum(n * d, axis=1)) / np.linalg.norm(d, axis=1)
+
+
+def _vec3(x):
+    return wp.array(np.ascontiguousarray(x, np.float32), dtype=wp.vec3, device="cpu")
+
+
+def _rays(shape: Shape, n: int, seed: int):
+    """Random rays from around the shape's box towards random points of it, plus rays
+    aimed at random points of random triangles, edges and vertices, and rays in a
+    triangle's plane (edge-on)."""
+    rng = np.random.default_rng(seed)
+    lo, hi = shape.points.min(axis=0), shape.points.max(axis=0)
+    size = float(np.max(hi - lo)) or 1.0
+    centre = 0.5 * (lo + hi)
+    tri = shape.points.astype(np.float64)[shape.triangles]
+    k = n // 4
+    origins = centre + rng.normal(size=(n, 3)) * size
+    targets = np.empty((n, 3))
+    targets[:k] = lo + rng.uniform(size=(k, 3)) * (hi - lo)
+    pick = rng.integers(0, len(tri), size=n - k)
+    w = rng.dirichlet(np.ones(3), size=n - k)
+    w[: (n - k) // 3, 0] = 0.0  # on an edge
+    w[: (n - k) // 3] /= w[: (n - k) // 3].sum(axis=1, keepdims=True)
+    w[(n - k) // 3: (n - k) // 2] = np.eye(3)[rng.integers(0, 3, size=(n - k) // 2 - (n - k) // 3)]  # a vertex
+    targets[k:] = np.einsum("nk,nkj->nj", w, tri[pick])
+    # Grazing: half of the aimed rays come along an edge of their triangle, 1e-3 rad
+    # out of its plane (exactly in the plane, a hit is undefined: the float64 test sees
+    # det = 0, a float32 one the rounding's sign).
+    m = k + (n - k) // 2
+    t3 = tri[pick[m - k:]]
+    e = t3[:, 1] - t3[:, 0]
+    normal = np.cross(e, t3[:, 2] - t3[:, 0])
+    normal *= (np.linalg.norm(e, axis=1) / np.maximum(np.linalg.norm(normal, axis=1), 1e-300))[:, None]
+    lift = 1.0e-3 * rng.choice([-1.0, 1.0], size=(n - m, 1))
+    origins[m:] = targets[m:] - (e + lift * normal) * rng.uniform(1.0, 3.0, size=(n - m, 1))
+    d = targets - origins
+    return origins.astype(np.float32), d.astype(np.float32)
+
+
+def _near_edge(shape: Shape, face, p, d):
+    """Rays whose float64 crossing of the plane of triangle ``face`` (-1: none) lies
+    within rounding of that triangle's boundary, inside or out: closer to it than
+    EDGE_TOL times the coordinates' scale, over cos(theta) (a grazing ray's crossing
+    moves farther along the surface). There a float32 test may pick the neighbour, or
+    hit where float64 misses, or miss."""
+    out = np.zeros(len(face), bool)
+    hit = face >= 0
+    tri = shape.points.astype(np.float64)[shape.triangles[face[hit]]]
+    pp = np.asarray(p, np.float32).astype(np.float64)[hit]
+    dd = np.asarray(d, np.float32).astype(np.float64)[hit]
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    h = np.cross(dd, e2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / np.sum(e1 * h, axis=1)
+        s = pp - tri[:, 0]
+        u = np.sum(s * h, axis=1) * inv
+        q = np.cross(s, e1)
+        v = np.sum(dd * q, axis=1) * inv
+        t = np.sum(e2 * q, axis=1) * inv
+    bary = np.stack([1 - u - v, u, v], axis=1)
+    twice_area = np.linalg.norm(np.cross(e1, e2), axis=1)
+    # Height over the edge opposite vertex i: 2 area / |edge i|.
+    edges = np.stack([tri[:, 2] - tri[:, 1], tri[:, 0] - tri[:, 2], e1], axis=1)
+    height = twice_area[:, None] / np.maximum(np.linalg.norm(edges, axis=2), 1e-300)
+    dist = np.min(np.abs(bary) * height, axis=1)
+    t = np.where(np.isfinite(t), np.abs(t), 0.0)
+    scale = np.abs(pp).max(axis=1) + t * np.abs(dd).max(axis=1) + np.abs(tri).max(axis=(1, 2))
+    cos = np.maximum(shape.cos(face[hit], dd), 1e-3)
+    out[hit] = ~(dist > EDGE_TOL * scale / cos)  # NaN (a ray in the plane): near
+    return out
+
+
+def _t_error(shape: Shape, face, t, t_ref, p, d):
+    """|t - t_ref| conditioned (see T_TOL): times cos(theta) (a grazing ray slides along
+    the surface), over the coordinates' scale |p| + t |d| and over the triangle's aspect
+    (its longest edge over its smallest height: a float32 test's barycentric weights
+    carry ulps of the edges over the height)."""
+    tri = shape.points.astype(np.float64)[shape.triangles[np.maximum(face, 0)]]
+    edges = np.stack([tri[:, 2] - tri[:, 1], tri[:, 0] - tri[:, 2], tri[:, 1] - tri[:, 0]], axis=1)
+    length = np.linalg.norm(edges, axis=2)
+    twice_area = np.linalg.norm(np.cross(edges[:, 2], -edges[:, 1]), axis=1)
+    aspect = length.max(axis=1) ** 2 / np.maximum(twice_area, 1e-300)
+    scale = np.linalg.norm(p, axis=1) + np.abs(t_ref) * np.linalg.norm(d, axis=1)
+    return np.abs(t - t_ref) * shape.cos(np.maximum(face, 0), d) / (np.maximum(scale, 1e-30) * aspect)
+
+
+def _stage_shapes():
+    import warp_st
+    from warp_st.spacetime.rigid import rigid_shapes
+
+    out = []
+    for stage in sorted((ROOT / "usd_scenes").rglob("*.usda")):
+        try:
+            scene = warp_st.load(str(stage))
+        except Exception:  # stages that need more than a load (layers, errors on purpose)
+            continue
+        shapes = rigid_shapes(scene)
+        for rest, tris in zip(shapes.shape_rest, shapes.shape_triangles):
+            if len(tris):
+                out.append((f"{stage.relative_to(ROOT / 'usd_scenes')}:{len(tris)}", rest, tris))
+    return out
+
+
+def _degenerate_shape():
+    """A strip of triangles with collapsed ones: repeated vertices, collinear ones, and
+    zero-area slivers, next to ordinary ones."""
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [2, 0, 0], [3, 0, 0], [2, 1, 0],
+                    [0, 0, 1], [1, 0, 1], [0, 1, 1]], float)
+    tris = np.array([[0, 1, 2], [1, 3, 2], [1, 1, 3], [4, 5, 5], [4, 5, 1], [2, 2, 2], [1, 4, 6],
+                     [7, 8, 9], [0, 1, 4]])
+    return pts, tris
+
+
+def test_closest_hits_equal_brute_force_on_the_shipped_shapes():
+    shapes = _stage_shapes()
+    assert len(shapes) >= 20
+    for i, (name, rest, tris) in enumerate(shapes):
+        shape = Shape(rest, tris)
+        p, d = _rays(shape, 1200, seed=i)
+        face, t, _uv = shape.query(p, d)
+        ref, t_ref, bary = shape.brute(p, d)
+        near_edge = _near_edge(shape, ref, p, d) | _near_edge(shape, face, p, d)
+        # Hit or miss: the same, except rays through an edge of the silhouette (there
+        # the float64 hit is within rounding of leaving the shape).
+        assert np.array_equal((face >= 0)[~near_edge], (ref >= 0)[~near_edge]), name
+        # The same triangle at the same t (to float32 rounding); another triangle only
+        # where the hit is within rounding of an edge, or where two lie at the same t
+        # (a fold, a duplicate).
+        both = (face >= 0) & (ref >= 0)
+        err = _t_error(shape, ref, t, t_ref, p, d)
+        alike = both & (face == ref)
+        assert alike.sum() > 0.3 * len(p), name
+        assert err[alike].max(initial=0.0) <= T_TOL, (name, float(err[alike].max()))
+        other = both & (face != ref) & ~near_edge
+        assert err[other].max(initial=0.0) <= T_TOL, (name, float(err[other].max()))
+
+
+def test_closest_hits_equal_wp_mesh():
+    for i, (name, rest, tris) in enumerate(_stage_shapes()[::3]):
+        shape = Shape(rest, tris)
+        p, d = _rays(shape, 800, seed=100 + i)
+        face, t, _uv = shape.query(p, d)
+        m_face, m_t = shape.mesh_query(p, d)
+        ref, t_ref, bary = shape.brute(p, d)
+        clear = ~(_near_edge(shape, ref, p, d) | _near_edge(shape, face, p, d) | _near_edge(shape, m_face, p, d))
+        assert np.array_equal(face[clear] >= 0, m_face[clear] >= 0), name
+        # The same t to float32 rounding (the triangle may differ where two lie at that
+        # t: the flanges hold coincident faces).
+        both = clear & (face >= 0)
+        err = _t_error(shape, face, t, m_t, p, d)
+        assert err[both].max(initial=0.0) <= T_TOL, (name, float(err[both].max()))
+
+
+def test_any_hit_finds_a_hit_exactly_when_the_closest_hit_does():
+    rng = np.random.default_rng(7)
+    pts, tris, _n = tessellate.sphere(1.0, 24)
+    shape = Shape(pts, tris)
+    p, d = _rays(shape, 2000, seed=3)
+    for t_max in (0.3, 1.0, 1.0e30):
+        face, t, _uv = shape.query(p, d, t_max=t_max)
+        any_face, any_t, _ = shape.query(p, d, t_max=t_max, any_hit=True)
+        assert np.array_equal(face >= 0, any_face >= 0), t_max
+        assert np.all(any_t[any_face >= 0] <= t_max)
+        assert np.all(any_t[any_face >= 0] >= t[any_face >= 0])  # any hit: not nearer than the closest
+    del rng
+
+
+def test_degenerate_triangles_are_never_hit_and_do_not_hide_others():
+    pts, tris = _degenerate_shape()
+    shape = Shape(pts, tris)
+    p, d = _rays(shape, 3000, seed=11)
+    face, t, _uv = shape.query(p, d)
+    ref, t_ref, bary = shape.brute(p, d)
+    degenerate = np.array([2, 3, 5, 4])  # zero area: repeated or collinear vertices
+    assert not np.isin(face, degenerate[:3]).any()
+    near_edge = _near_edge(shape, ref, p, d) | _near_edge(shape, face, p, d)
+    assert np.array_equal((face >= 0)[~near_edge], (ref >= 0)[~near_edge])
+
+
+@pytest.mark.parametrize("segments", [8, 24])
+def test_rays_through_shared_edges_and_vertices_of_a_closed_mesh_hit(segments):
+    """Watertight: a ray through a vertex or a point of an edge of a closed convex mesh
+    into its inside (from outside, towards the centre, within 6 degrees) always hits,
+    however the float32 target rounds: it cannot pass between the triangles that meet
+    there. (Such rays hit the triangles at their edges, where a test that rounds the two
+    neighbours' edge functions differently misses both.)"""
+    rng = np.random.default_rng(segments)
+    for pts, tris in (tessellate.sphere(1.0, segments)[:2], tessellate.cube(1.0)):
+        shape = Shape(pts, tris)
+        tri = shape.points[shape.triangles]
+        centre = shape.points.astype(np.float64).mean(axis=0)
+        pick = rng.integers(0, len(tri), size=3000)
+        w = np.zeros((3000, 3))
+        w[:1000] = np.eye(3)[rng.integers(0, 3, size=1000)]  # vertices
+        f = rng.uniform(size=2000)
+        w[1000:, 0], w[1000:, 1] = f, 1 - f  # edges
+        target = np.einsum("nk,nkj->nj", w, tri[pick].astype(np.float64))
+        out = target - centre
+        size = np.linalg.norm(out, axis=1, keepdims=True)
+        origin = target + out * rng.uniform(1.0, 3.0, size=(3000, 1)) + 0.1 * size * rng.uniform(-1, 1, (3000, 3))
+        origin, target = origin.astype(np.float32), target.astype(np.float32)
+        face, t, _uv = shape.query(origin, target - origin)
+        assert (face >= 0).all(), (segments, len(tri), int((face < 0).sum()))
+
+
+def test_axis_rays_through_the_diagonals_and_edges_of_a_cube_hit():
+    """Watertight, exactly: rays along the axes through points of a cube face's diagonal
+    (the edge its two triangles share) and of its border, at binary fractions (so the
+    ray meets the edge exactly: an edge function is exactly 0 there), always hit."""
+    pts, tris = tessellate.cube(1.0)
+    shape = Shape(pts, tris)
+    t = np.arange(-8, 9) / 16.0  # -0.5 .. 0.5: the border at the ends
+    origins, dirs = [], []
+    for axis in range(3):
+        u_axis, v_axis = [k for k in range(3) if k != axis]
+        for sign in (1.0, -1.0):
+            for u in t:
+                for v in (u, -u, 0.5, -0.5):
+                    p = np.zeros(3)
+                    p[u_axis], p[v_axis], p[axis] = u, v, 5.0 * sign
+                    d = np.zeros(3)
+                    d[axis] = -sign
+                    origins.append(p)
+                    dirs.append(d)
+    face, t_hit, _uv = shape.query(np.array(origins), np.array(dirs))
+    assert (face >= 0).all(), int((face < 0).sum())
+    assert np.allclose(t_hit, 4.5)  # the face at 0.5, exactly 4.5 from the origin plane

@@ -1,0 +1,147 @@
+"""A bottom level's ray query: our 4-wide 3D BVH and a watertight triangle test (pure Warp device code).
+
+The tree is ``accel/blas.py``'s (every shape's nodes and triangles in shared arrays,
+``Geometry.blas_*``). ``make_blas_query(Geometry)`` gives
+
+    blas_query(g, root, p, d, t_max, any_hit) -> (hit, t, u, v, face)
+
+the closest (with ``any_hit``, any) crossing of the float32 ray p + t d, t in
+[0, t_max], with the triangles under wide node ``root``: t in units of d, (u, v) the
+barycentric weights of the triangle's first and second vertices, ``face`` its index in
+its shape — what ``wp.mesh_query_ray`` returns for the same ray and triangles.
+
+The triangle test is Woop, Benthin and Wald's watertight one (JCGT 2(1), 2013): the
+ray's largest axis becomes z, the vertices are sheared so that the ray is the z axis,
+and the 2D edge functions U, V, W decide. Each is a difference of two products of
+float32 numbers, computed in float64 (where the products are exact) and rounded once:
+as accurate as ``wp.Mesh``'s fused products, and two triangles sharing an edge get it
+with opposite signs bit for bit, so a ray through the edge meets one of them (no
+cracks). Box tests widen the far slab by ``SLAB_GROW`` (pbrt's rule), so a box is never
+missed by rounding.
+
+Traversal as in ``traverse.py``: a visit tests the four child boxes as one 12-lane slab
+test, goes to the nearest hit child and pushes the others farthest first.
+"""
+
+import warp as wp
+
+from warp_st.kernels.layout import LINK_MASK, LINK_SHIFT
+from warp_st.kernels.traverse import STACK_SIZE, make_box_ops, make_sort4
+
+__all__ = ["make_blas_query"]
+
+
+def make_blas_query(Geometry):
+    vec12 = wp.types.vector(12, wp.float32)
+    stack_i = wp.types.vector(STACK_SIZE, wp.int32)
+    stack_s = wp.types.vector(STACK_SIZE, wp.float32)
+    fmin, fmax, safe_inv, SLAB_GROW = make_box_ops(wp.float32)
+    sort4 = make_sort4(wp.float32)
+    INF = float("inf")
+
+    @wp.func(inline=True)
+    def blas_query(g: Geometry, root: int, p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int):
+        # The shear of Woop's test, once per ray: z along the largest |d| (the first
+        # of equals), x and y swapped when d_z < 0 to keep the winding.
+        kz = int(0)
+        if wp.abs(d[1]) > wp.abs(d[0]):
+            kz = 1
+        if wp.abs(d[2]) > wp.abs(d[kz]):
+            kz = 2
+        kx = (kz + 1) % 3
+        ky = (kx + 1) % 3
+        if d[kz] < 0.0:
+            kt = kx
+            kx = ky
+            ky = kt
+        sx = d[kx] / d[kz]
+        sy = d[ky] / d[kz]
+        sz = 1.0 / d[kz]
+        inv = wp.vec3(safe_inv(d[0]), safe_inv(d[1]), safe_inv(d[2]))
+        o12 = vec12()
+        inv12 = vec12()
+        for k in range(12):
+            o12[k] = p[k // 4]
+            inv12[k] = inv[k // 4]
+        best = t_max
+        hit = int(0)
+        best_u = float(0.0)
+        best_v = float(0.0)
+        best_face = int(-1)
+        st_node = stack_i()
+        st_s = stack_s()
+        sp = int(0)
+        cur = root << LINK_SHIFT  # the root wide node's link
+        while cur >= 0:
+            first = cur >> LINK_SHIFT
+            count = cur & LINK_MASK
+            next_link = int(-1)
+            if count > 0:
+                for i in range(first, first + count):
+                    a = g.blas_vert[3 * i] - p
+                    b = g.blas_vert[3 * i + 1] - p
+                    c = g.blas_vert[3 * i + 2] - p
+                    ax = a[kx] - sx * a[kz]
+                    ay = a[ky] - sy * a[kz]
+                    bx = b[kx] - sx * b[kz]
+                    by = b[ky] - sy * b[kz]
+                    cx = c[kx] - sx * c[kz]
+                    cy = c[ky] - sy * c[kz]
+                    # Edge functions: products of float32 are exact in float64, so each
+                    # is their difference rounded once (an edge shared by two triangles
+                    # gets the same value with opposite signs in both).
+                    eu = wp.float32(wp.float64(cx) * wp.float64(by) - wp.float64(cy) * wp.float64(bx))
+                    ev = wp.float32(wp.float64(ax) * wp.float64(cy) - wp.float64(ay) * wp.float64(cx))
+                    ew = wp.float32(wp.float64(bx) * wp.float64(ay) - wp.float64(by) * wp.float64(ax))
+                    outside = (eu < 0.0 or ev < 0.0 or ew < 0.0) and (eu > 0.0 or ev > 0.0 or ew > 0.0)
+                    det = eu + ev + ew
+                    if not outside and det != 0.0:
+                        tt = eu * (sz * a[kz]) + ev * (sz * b[kz]) + ew * (sz * c[kz])
+                        if (det > 0.0 and tt >= 0.0) or (det < 0.0 and tt <= 0.0):
+                            rcp = 1.0 / det
+                            t = tt * rcp
+                            if t < best and t >= 0.0:
+                                best = t
+                                best_u = eu * rcp
+                                best_v = ev * rcp
+                                best_face = i
+                                hit = 1
+                if any_hit != 0 and hit != 0:
+                    break
+            else:
+                lo = wp.cw_mul(g.blas_lo[first] - o12, inv12)
+                hi = wp.cw_mul(g.blas_hi[first] - o12, inv12)
+                links = g.blas_link[first]
+                e = wp.vec4()
+                hits = int(0)
+                for k in range(4):
+                    near = fmax(fmax(fmax(fmin(lo[k], hi[k]), fmin(lo[4 + k], hi[4 + k])),
+                                     fmin(lo[8 + k], hi[8 + k])), 0.0)
+                    far = fmin(fmin(fmin(fmax(lo[k], hi[k]), fmax(lo[4 + k], hi[4 + k])),
+                                    fmax(lo[8 + k], hi[8 + k])) * SLAB_GROW, best)
+                    if near <= far:
+                        e[k] = near
+                        hits += 1
+                    else:
+                        e[k] = INF
+                e, links = sort4(e, links)
+                if hits > 0:
+                    next_link = links[0]
+                    if sp + hits - 1 <= STACK_SIZE:
+                        for k in range(3):
+                            j = 3 - k
+                            if j < hits:
+                                st_node[sp] = links[j]
+                                st_s[sp] = e[j]
+                                sp += 1
+            while next_link < 0 and sp > 0:
+                sp -= 1
+                if st_s[sp] <= best:
+                    next_link = st_node[sp]
+            cur = next_link
+        face = int(-1)
+        if hit != 0:
+            face = g.blas_face[best_face]
+        return hit, best, best_u, best_v, face
+
+    return blas_query
