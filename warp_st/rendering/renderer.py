@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from warp_st.accel.bvh import FlatBVH
 from warp_st.core.conventions import DEFAULT_RESOLUTION, LightSpeed, Precision
 from warp_st.core.limits import resolve_max_memory
 from warp_st.core.scene import CameraState, Scene, SceneError
@@ -30,12 +29,12 @@ from warp_st.output.cryptomatte import image_layers, resolve_layers
 from warp_st.output.film import Image, quantize_time
 from warp_st.rendering import database_cache
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
+from warp_st.rendering.database_build import build_database
 from warp_st.rendering.tile_pool import tile_pool
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.animation import animated_bodies, animation_cuts, piece_count
 from warp_st.spacetime.deform import deform_primitive, deforming, slice_view
-from warp_st.spacetime.extrude import SpacetimeMesh, extrude_scene
 from warp_st.spacetime.reach import motion_reach
 from warp_st.spacetime.rigid import all_exact_quadrics, quadric_body
 from warp_st.spacetime.visibility import union, visibility_windows
@@ -484,9 +483,8 @@ class Renderer:
         tiles = [(o, min(TILE_PIXELS, n_pix - o)) for o in range(0, n_pix, TILE_PIXELS)]
 
         def launch(tile):
-            threads = -(-tile[1] // PIXELS_PER_THREAD)
-            wp.launch(k.render_pixels, dim=threads, inputs=[geo, shd, kcam, film, tile[0], tile[0] + tile[1]],
-                      device="cpu")
+            wp.launch(k.render_pixels, dim=-(-tile[1] // PIXELS_PER_THREAD), device="cpu",
+                      inputs=[geo, shd, kcam, film, tile[0], tile[0] + tile[1]])
 
         t_kernel = time.perf_counter()
         n_threads = max(1, int(threads or self.threads))
@@ -564,33 +562,6 @@ class Renderer:
                 **self.scene.header(),  # metersPerUnit, timeCodesPerSecond
             },
         )
-
-
-def build_database(scene: Scene, windows: list, primitive: str = "prism", *, fine: bool = True,
-                   fraction: float | None = None, view=None) -> tuple[SpacetimeMesh, FlatBVH]:
-    """Extrude ``scene`` over per-body time ``windows`` and build the 4D BVH.
-
-    ``primitive``: what the BVH's leaves hold and the kernels intersect: "prism" (one
-    comoving triangle test per extruded triangle and segment; every body moves
-    uniformly, so this is exact) or "tet" (three tetrahedra per prism, the general
-    path). The returned mesh stores that primitive array in BVH leaf order (a leaf is
-    a contiguous range), so primitive indices refer to that order. ``fine`` and
-    ``fraction``: the time-segment rule (``extrude.body_slices``); ``view``: the cameras
-    deforming bodies' slices follow within half a pixel (``deform.SliceView``).
-    """
-    from warp_st.accel.bvh import build_bvh
-
-    if primitive not in ("prism", "tet"):
-        raise ValueError(f"primitive must be prism or tet, got {primitive!r}")
-    mesh = dataclasses.replace(extrude_scene(scene, windows, fine=fine, fraction=fraction, view=view), primitive=primitive)
-    lo, hi = mesh.prim_boxes() if mesh.prim_count else (np.zeros((0, 4)), np.zeros((0, 4)))
-    bvh = build_bvh(lo, hi, primitive=primitive)
-    if primitive == "prism":
-        mesh = dataclasses.replace(mesh, prisms=mesh.prisms[bvh.order], prism_tri=mesh.prism_tri[bvh.order],
-                                   prism_span=mesh.prism_span[bvh.order])
-    else:
-        mesh = dataclasses.replace(mesh, tets=mesh.tets[bvh.order], tet_tri=mesh.tet_tri[bvh.order])
-    return mesh, bvh
 
 
 def render_frame(scene: Scene, *, frame=None, **options) -> Image:
