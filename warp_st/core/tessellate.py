@@ -22,7 +22,10 @@ def sphere_segments_for_sagitta(radius: float, sagitta: float, *, lo: int = 8, h
     if sagitta <= 0.0 or radius <= 0.0:
         return hi
     ratio = min(sagitta / radius, 1.0)
-    n = math.ceil(math.pi / math.acos(1.0 - ratio)) if ratio < 1.0 else lo
+    angle = math.acos(1.0 - ratio)  # 0 when the ratio is below float64's resolution at 1
+    if angle == 0.0:
+        return hi
+    n = math.ceil(math.pi / angle) if ratio < 1.0 else lo
     return int(min(max(n, lo), hi))
 
 
