@@ -2,7 +2,8 @@
 surface within ``Body.seam``, so a shadow ray leaving one piece must not stop on its
 neighbours' copy of the same face (self-shadow acne), and must still find the body's real
 shadow on itself: a face receding from the light faster than the light reaches it, and the
-retarded body sweeping across its own shadow rays.
+retarded body sweeping across its own shadow rays. The rule is one for every light: a
+distant one and an area light (a small RectLight far away in the same direction).
 
 Oracle: the closed-form rotating box (checked against USD's ComputeLocalToWorldTransform)
 and a float64 march of each shadow ray through it, at every rod pixel of a side face turned
@@ -20,7 +21,7 @@ from warp_st.rendering.camera import pixel_directions
 
 RATE = 20.053522829578812  # degrees per time code: the tips (2 from the axis) at 0.7 c
 HALF = np.array([2.0, 0.15, 0.15])  # the bar: a unit cube scaled (4, 0.3, 0.3)
-STAGE = f"""#usda 1.0
+STAGE = """#usda 1.0
 (
     upAxis = "Y"
     metersPerUnit = 1
@@ -34,17 +35,11 @@ def Camera "Cam" (prepend apiSchemas = ["SpacetimeCameraAPI"])
     uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
     float focalLength = 24
 }}
-def DistantLight "Sun"
-{{
-    float inputs:intensity = 2.5
-    bool inputs:normalize = 1
-    float3 xformOp:rotateXYZ = (-40, 30, 0)
-    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
-}}
+{light}
 def Xform "Rod" (prepend apiSchemas = ["SpacetimeBodyAPI"])
 {{
     double3 xformOp:translate = (0, 1, 0)
-    double xformOp:rotateY.timeSamples = {{ 0: 0, 20: {20 * RATE!r} }}
+    double xformOp:rotateY.timeSamples = {{ 0: 0, 20: {angle!r} }}
     uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateY"]
     def Cube "Bar"
     {{
@@ -54,6 +49,28 @@ def Xform "Rod" (prepend apiSchemas = ["SpacetimeBodyAPI"])
     }}
 }}
 """
+
+
+#: The sun: a distant light, or a small RectLight 1000 away in the same direction (the
+#: area-light path: its one sample is a point light there; the oracle aims at its centre).
+LIGHTS = {
+    "distant": """def DistantLight "Sun"
+{
+    float inputs:intensity = 2.5
+    bool inputs:normalize = 1
+    float3 xformOp:rotateXYZ = (-40, 30, 0)
+    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
+}""",
+    "rect": """def RectLight "Sun"
+{
+    float inputs:intensity = 2500000
+    float inputs:width = 1
+    float inputs:height = 1
+    double3 xformOp:translate = (383.022221559489, 642.7876096865394, 663.4139481689385)  # 1000 x the sun
+    float3 xformOp:rotateXYZ = (-40, 30, 0)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
+}""",
+}
 
 
 def _world(q, t):
@@ -71,10 +88,11 @@ def _rod_coordinates(p, t):
     return np.stack([q[..., 0] * c - q[..., 2] * s, q[..., 1], q[..., 0] * s + q[..., 2] * c], axis=-1)
 
 
+@pytest.mark.parametrize("light", sorted(LIGHTS))
 @pytest.mark.parametrize("frame", [16.0, 17.5])  # events at t ~ 6-8: inside the samples
-def test_a_rotating_rod_shadows_itself_where_the_march_says(tmp_path, frame):
+def test_a_rotating_rod_shadows_itself_where_the_march_says(tmp_path, frame, light):
     path = tmp_path / "rod.usda"
-    path.write_text(STAGE)
+    path.write_text(STAGE.format(light=LIGHTS[light], angle=20 * RATE))
     stage = Usd.Stage.Open(str(path))
     bar = stage.GetPrimAtPath("/Rod/Bar")
     for t in (0.0, 3.7, frame):  # the closed form is USD's
@@ -86,12 +104,17 @@ def test_a_rotating_rod_shadows_itself_where_the_march_says(tmp_path, frame):
     scene = warp_st.load(str(path))
     image = warp_st.render(scene, frame=frame, width=width, height=height)
     cam = scene.camera_state(None, frame)
-    sun = np.asarray(scene.lights[0].direction, dtype=np.float64)
     rod = image.object_id > 0
     t = image.event_time.astype(np.float64)
     lookback = np.where(rod, frame - t, 0.0)  # c = 1: the distance
     x = np.asarray(cam.position, dtype=np.float64) + lookback[..., None] * pixel_directions(cam, width, height)
     q = _rod_coordinates(x, t)
+    lamp = scene.lights[0]
+    if lamp.kind == "distant":
+        sun = np.broadcast_to(np.asarray(lamp.direction, dtype=np.float64), x.shape)
+    else:  # towards the lamp's centre from each hit
+        sun = np.asarray(lamp.position, dtype=np.float64) - x
+        sun = sun / np.linalg.norm(sun, axis=-1, keepdims=True)
     # The pieces model the surface within half a pixel (~0.01 here): a hit within TOL of one
     # face and 3 TOL away from the others is on that face.
     tol = 0.01
@@ -106,7 +129,7 @@ def test_a_rotating_rod_shadows_itself_where_the_march_says(tmp_path, frame):
     n_world = np.stack([np.sin(th) * normal_z, np.zeros_like(th), np.cos(th) * normal_z], -1)
     cos_l = (n_world * sun).sum(-1)
     lum = image.rgba[..., :3].sum(-1).astype(np.float64)
-    k = np.median(lum[top] / (sun[1]))  # the unshadowable top face: lum = k cos_l
+    k = np.median(lum[top] / sun[..., 1][top])  # the unshadowable top face: lum = k cos_l
     assert top.sum() > 50 and k > 0
     # (l + u).n, u the point's velocity: the ray leaves the surface (> 0) or enters the rod
     u_point = (_world(q, t + 1e-6) - _world(q, t - 1e-6)) / 2e-6
@@ -120,7 +143,7 @@ def test_a_rotating_rod_shadows_itself_where_the_march_says(tmp_path, frame):
     blocked = np.zeros(len(xs), bool)
     for a in range(0, len(u), 200):
         uu = u[a:a + 200]
-        p = _rod_coordinates(xs[:, None, :] + uu[None, :, None] * sun, ts[:, None] - uu[None, :])
+        p = _rod_coordinates(xs[:, None, :] + uu[None, :, None] * sun[faces][:, None, :], ts[:, None] - uu[None, :])
         blocked |= (np.abs(p) <= HALF - tol).all(-1).any(1)
     dark = lum[faces] < 0.5 * k * cos_l[faces]
     wrong_dark, wrong_lit = dark & ~blocked, ~dark & blocked

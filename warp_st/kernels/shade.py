@@ -173,6 +173,26 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         return vis / scalar(5.0)
 
     @wp.func
+    def shadow_skip(shd: Shading, body: int, normal: vec3, l: vec3, u: vec3, finite: int, cos_l: scalar,
+                    skip_dist: scalar):
+        """(leave, skip) of a shadow ray towards l from a point moving with u. An animated
+        body's neighbouring pieces model the same surface within ``body_seam``: relative to
+        the point the ray leaves along l + u (with infinite c the ray and the surface meet at
+        one instant: along l), so it enters the body's own world-tube at once when
+        leave = (l + u).n <= 0 (the body shadows itself), else it meets the neighbours' copy
+        within seam / leave, which the ray skips on the body (at most SEAM_SLOPE seams)."""
+        seam = shd.body_seam[body]
+        if seam <= scalar(0.0):
+            return cos_l, skip_dist
+        leave = cos_l
+        if finite != 0:
+            leave = wp.dot(normal, l + u)
+        reach = seam * scalar(SEAM_SLOPE)
+        if leave * scalar(SEAM_SLOPE) > scalar(1.0):
+            reach = seam / leave
+        return leave, wp.max(skip_dist, reach)
+
+    @wp.func
     def area_light(geo: Geometry, shd: Shading, finite: int, event: vec4, x: vec3, normal: vec3, li: int,
                    s_min: scalar, tri: int, body: int, skip_dist: scalar, u: vec3, gamma_u: scalar):
         """sum_i w_i cos cos' / d^2 over the light's unblocked samples (warp_st.core.light_samples)
@@ -197,8 +217,9 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
             l = to_p / d
             cos_s = wp.dot(normal, l)
             cos_e = wp.dot(back, l)  # the light emits along -back: towards x when back.l > 0
-            if cos_s > scalar(0.0) and cos_e > scalar(0.0):
-                vis = unblocked(geo, finite, event, x, p, s_min, tri, body, skip_dist)
+            leave, skip = shadow_skip(shd, body, normal, l, u, finite, cos_s, skip_dist)
+            if cos_s > scalar(0.0) and cos_e > scalar(0.0) and leave > scalar(0.0):
+                vis = unblocked(geo, finite, event, x, p, s_min, tri, body, skip)
                 a = vis * shd.sample_weight[j] * cos_s * cos_e / (d * d)
                 dop = scalar(1.0)
                 if shifting:
@@ -234,19 +255,11 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         skip_dist = scalar(0.0)
         if shd.tri_smooth[tri] != 0:
             skip_dist = scalar(2.0) * shd.tri_size[tri]
-        # An animated body's neighbouring pieces model the same surface within body_seam.
-        # Relative to the surface point moving with u the shadow ray leaves along l + u: it
-        # enters the body's own world-tube at once when (l + u).n <= 0 (the body shadows
-        # itself), else it meets the neighbours' copy of the surface within seam / (l + u).n.
-        seam = shd.body_seam[body]
-        u_leave = vec3(scalar(0.0))  # with infinite c the ray and the surface meet at one instant
-        if finite != 0:
-            u_leave = u
         for li in range(shd.light_count):
             kind = shd.light_kind[li]
             if kind == 2:
-                area, shifted = area_light(geo, shd, finite, event, x, normal, li, s_min, tri, body,
-                                           wp.max(skip_dist, seam * scalar(SEAM_SLOPE)), u, gamma_u)
+                area, shifted = area_light(geo, shd, finite, event, x, normal, li, s_min, tri, body, skip_dist,
+                                           u, gamma_u)
                 color = color + wp.cw_mul(diffuse, shd.light_radiance[li]) * area
                 if shd.color_shift != 0 or shd.searchlight != 0:
                     color = color + wp.cw_mul(diffuse, shifted)
@@ -276,17 +289,12 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
                 cos_l = wp.dot(normal, l)
                 if cos_l > scalar(0.0) and centre_dist >= radius:
                     vis = scalar(0.0)
-                    leave = cos_l
-                    if seam > scalar(0.0):
-                        leave = wp.dot(normal, l + u_leave)
-                    skip = wp.max(skip_dist, seam * wp.min(scalar(1.0) / wp.max(leave, scalar(1e-30)),
-                                                           scalar(SEAM_SLOPE)))
-                    if leave <= scalar(0.0):
-                        vis = scalar(0.0)
-                    elif radius > scalar(0.0):  # a sphere: seen from outside, shadows from its silhouette
+                    leave, skip = shadow_skip(shd, body, normal, l, u, finite, cos_l, skip_dist)
+                    # leave <= 0: the body's own shadow (vis stays 0)
+                    if leave > scalar(0.0) and radius > scalar(0.0):  # a sphere: shadows from its silhouette
                         vis = sphere_visibility(geo, finite, event, x, pos, radius, l, centre_dist,
                                                 s_min, tri, body, skip)
-                    else:
+                    elif leave > scalar(0.0):
                         blocker, _bs, _bl, _bv, _bo = trace(geo, event, l, finite, s_min, dist, tri, body, skip, 1)
                         if blocker < 0:
                             vis = scalar(1.0)
