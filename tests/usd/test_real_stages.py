@@ -189,6 +189,41 @@ def test_default_camera_frames_the_bounds(tmp_path, name, view):
     assert reach.max() <= 1.0 + 1e-6 and reach.max() >= 1.0 - 1e-6, reach
 
 
+#: A triangle off its pivot, half-turning about Z between time codes 1 and 13 (glTF's
+#: AnimatedTriangle): at time code 13 it lies on the far side of the pivot.
+TURNING = '''def Xform "Spin"
+{
+    float xformOp:rotateZ.timeSamples = { 1: 0, 13: 180, 24: 330 }
+    uniform token[] xformOpOrder = ["xformOp:rotateZ"]
+    def Mesh "Tri"
+    {
+        point3f[] points = [(1, 0, 0), (3, 0, 0), (3, 2, 0)]
+        int[] faceVertexCounts = [3]
+        int[] faceVertexIndices = [0, 1, 2]
+    }
+}
+'''
+
+
+def test_default_camera_frames_an_animated_stage_at_every_time_code(tmp_path):
+    """A stage whose only body turns about a pivot off it: the default camera (at rest, one
+    for the whole range) holds USD's bounds at every time code of the range in the image
+    (BBoxCache per time code is the oracle; tolerance: the float32 points). Framing only the
+    pivot's path, as 0.7.0 did, leaves the triangle out of the image at time code 13."""
+    path = tmp_path / "turning.usda"
+    path.write_text(HEADER.format(up="Y") + TURNING)
+    scene = load_quietly(path)
+    stage = Usd.Stage.Open(str(path))
+    for code in range(1, 25):
+        cam = scene.camera_state(None, float(code))
+        cache = UsdGeom.BBoxCache(Usd.TimeCode(code), [UsdGeom.Tokens.default_])
+        box = cache.ComputeWorldBound(stage.GetPseudoRoot()).ComputeAlignedRange()
+        lo, hi = np.array(box.GetMin()), np.array(box.GetMax())
+        corners = np.array([[(lo, hi)[i >> k & 1][k] for k in range(3)] for i in range(8)])
+        x, y = ndc(cam, corners)
+        assert np.maximum(np.abs(x), np.abs(y)).max() <= 1.0 + 1e-6, code
+
+
 # --- geometry --------------------------------------------------------------------------------
 
 

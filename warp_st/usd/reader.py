@@ -84,6 +84,7 @@ from warp_st.usd.light_speed import (
 from warp_st.usd.lights import SUPPORTED, read_light
 from warp_st.usd.products import read_products
 from warp_st.usd.rest_frame_motion import animation_frame, rest_frame_surfaces
+from warp_st.usd.scene_bounds import scene_bounds
 from warp_st.usd.stage import open_stage, tf_message
 
 __all__ = ["load_scene", "read_stage", "open_stage", "CameraEvaluator", "body_kinematics"]
@@ -156,7 +157,7 @@ class _StageReader:
         cameras = tuple(self.cameras)
         framing = None
         if bodies:
-            framing = dataclasses.replace(frame_bounds(*_bounds(bodies, self.stage), str(UsdGeom.GetStageUpAxis(
+            framing = dataclasses.replace(frame_bounds(*scene_bounds(bodies, self.stage), str(UsdGeom.GetStageUpAxis(
                 self.stage)), _aspect(settings.resolution)), lab_per_code=self.light_speed)
         self._closing_notes(cameras, framing)
         default_camera = settings.camera or (cameras[0] if cameras else DEFAULT_CAMERA)
@@ -479,26 +480,6 @@ def _tuple(v):
 def _aspect(resolution) -> float:
     width, height = resolution or DEFAULT_RESOLUTION
     return width / height
-
-
-def _bounds(bodies, stage) -> tuple[np.ndarray, np.ndarray]:
-    """World bounds of every triangle's vertices; a moving body's over the stage's
-    time-code range (lab time = time code for a camera at rest), else at its reference time."""
-    times = {float(stage.GetStartTimeCode()), float(stage.GetEndTimeCode())}
-    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-    for body in bodies:
-        shifts = [np.zeros(3)] if not body.velocity.any() else [body.velocity * (t - body.reference_time)
-                                                                  for t in times]
-        if body.motion is not None:  # the pivot's path (orientation left out: framing only)
-            shifts = shifts + list(body.motion.pivot[::max(1, len(body.motion.times) // 64)]
-                                   - body.motion.static_pivot)
-        for surface in body.surfaces:
-            points = surface.points[np.unique(surface.triangles)]
-            for shift in shifts:
-                with np.errstate(over="ignore", invalid="ignore"):
-                    moved = points + shift
-                lo, hi = np.fmin(lo, moved.min(axis=0)), np.fmax(hi, moved.max(axis=0))
-    return lo, hi
 
 
 def load_scene(source, *, no_references: bool = False, light_speed: str | LightSpeedSetting | None = None) -> Scene:
