@@ -15,6 +15,8 @@ of the hit may pick the neighbour).
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import OpenImageIO as oiio
 import pytest
@@ -325,3 +327,26 @@ def test_usd_transform2d_moves_the_texture(tmp_path):
     assert mask.sum() > 500
     err = np.abs(img.rgba[..., :3][mask] - texels[np.mod(iy, TEX_H)[mask], np.mod(ix, TEX_W)[mask]] / 255.0).max()
     assert err <= 1.0 / 255.0  # as in test_texels_ride_on_the_quad (repeat wrap)
+
+
+def test_a_texture_inside_a_usdz_package(tmp_path):
+    """The same textured quad packaged as a USDZ (USD's own ``UsdUtils.CreateNewUsdzPackage``):
+    its texture is a package-relative asset (``quad.usdz[0/grid.png]``), read through USD's
+    resolver, and every interior pixel shows its texel as from the loose files (1/255, as
+    in test_texels_ride_on_the_quad). 0.7.0 handed the package path to OIIO, which cannot
+    open it: the texture's black fallback with a warning."""
+    from pxr import Sdf, UsdUtils
+
+    texels = random_texture(tmp_path)
+    layer = textured_quad_stage(tmp_path, 0.0)
+    package = tmp_path / "quad.usdz"
+    assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(layer), str(package))
+    (tmp_path / "grid.png").unlink()  # only the package holds the texture now
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no "cannot be read" warning
+        scene = warp_st.load(str(package))
+    img = warp_st.render(scene, frame=0, width=W, height=H)
+    ix, iy, mask = interior_texels(*oracle_st(scene, 0.0))
+    assert mask.sum() > 500
+    err = np.abs(img.rgba[..., :3][mask] - texels[iy[mask], ix[mask]] / 255.0).max()
+    assert err <= 1.0 / 255.0

@@ -13,13 +13,19 @@ the top of the image, with the colour channels decoded to linear:
 
 The wrap modes a file declares (``wrapmodes`` metadata, e.g. ``"periodic,clamp"`` in
 ``.tx`` files) come back as UsdUVTexture tokens for ``wrapS/wrapT = useMetadata``.
-A file that cannot be read raises :class:`ImageError` with OIIO's reason.
+A file that cannot be read raises :class:`ImageError` with OIIO's reason. An image inside
+a USDZ package (a package-relative path, ``pkg.usdz[inner.png]``, as USD resolves it) is
+read through USD's own asset resolver (``Ar``) into a temporary file OIIO opens.
 """
 from __future__ import annotations
 
+import contextlib
+import os
+import tempfile
 from dataclasses import dataclass
 
 import numpy as np
+from pxr import Ar
 
 __all__ = ["ImageError", "Image", "read_image", "srgb_to_linear", "COLOR_SPACES"]
 
@@ -50,13 +56,38 @@ def srgb_to_linear(v: np.ndarray) -> np.ndarray:
     return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
 
 
+@contextlib.contextmanager
+def _local_file(path: str):
+    """``path`` itself, or for a package-relative path (an image inside a USDZ) a temporary
+    copy of the packaged file's bytes, read through ``Ar`` (removed afterwards)."""
+    if not Ar.IsPackageRelativePath(path):
+        yield path
+        return
+    asset = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(path))
+    if asset is None:
+        raise ImageError(f"cannot open {path} in its package")
+    inner = Ar.SplitPackageRelativePathInner(path)[1]
+    fd, local = tempfile.mkstemp(suffix=os.path.splitext(inner)[1])
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(asset.GetBuffer())
+        yield local
+    finally:
+        os.unlink(local)
+
+
 def read_image(path: str, color_space: str = "auto") -> Image:
     """The image at ``path`` decoded to linear float32 (see the module docstring)."""
-    import OpenImageIO as oiio
-
     if color_space not in COLOR_SPACES:
         raise ValueError(f"color_space must be one of {', '.join(COLOR_SPACES)}, got {color_space!r}")
-    inp = oiio.ImageInput.open(str(path))
+    with _local_file(str(path)) as local:
+        return _read_local(local, path, color_space)
+
+
+def _read_local(local: str, path: str, color_space: str) -> Image:
+    import OpenImageIO as oiio
+
+    inp = oiio.ImageInput.open(local)
     if inp is None:
         raise ImageError(oiio.geterror() or f"cannot open {path}")
     try:
