@@ -103,7 +103,10 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
             top = idx[0] + stride
             u = (lam[0] * corner_velocity(shd, idx[0], top, stride) + lam[1] * corner_velocity(shd, idx[1], top, stride)
                  + lam[2] * corner_velocity(shd, idx[2], top, stride) + lam[3] * corner_velocity(shd, idx[3], top, stride))
-            return u, scalar(1.0)
+            g = scalar(1.0)
+            if shd.body_decoupled[body] == 0:  # a coupled turning body's worldlines (spacetime/turning.py)
+                g = scalar(1.0) / wp.sqrt(wp.max(scalar(1.0) - wp.dot(u, u), scalar(MIN_INV_GAMMA2)))
+            return u, g
         v = shd.body_velocity[body]
         g = shd.body_gamma[body]
         if shd.body_spins[body] != 0:

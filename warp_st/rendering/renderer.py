@@ -278,7 +278,8 @@ class Renderer:
         # Only the chunks of their motion some frame can reach (spacetime/reach.py) are cut.
         reach = functools.partial(motion_reach, cameras=cams, infinite_modes=[m == LightSpeed.INFINITE for m in modes],
                                   max_depth=self.max_depth, shutter=shutter)
-        self.animation = animation_cuts(self.scene, ends, width=self.width, height=self.height, reach=reach)
+        self.animation = animation_cuts(self.scene, ends, width=self.width, height=self.height, reach=reach,
+                                        worldlines=self.primitive == "tet")  # turning bodies: spacetime/turning.py
         self.object_of = None  # the scene body of each rendered body (None: the same)
         if self.animation:  # the cache holds the bodies only: an entry must not keep its scene alive
             bodies, self.object_of = cache.tessellated(("animation", self.animation),

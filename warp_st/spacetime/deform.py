@@ -28,6 +28,7 @@ from warp_st.core.deform import deforming, surface_hull_points
 from warp_st.core.scene import Body, SceneError, surface_keep, surface_triangles
 from warp_st.spacetime.adaptive import _camera_stretch, min_pixel_angle
 from warp_st.spacetime.animation import FLOOR_FRACTION
+from warp_st.spacetime.turning import worldline_body
 
 __all__ = ["DEFORM_TOLERANCE", "deforming", "deform_primitive", "deform_slices", "deformed_events", "deformed_triangles",
            "slice_velocities", "SliceView", "slice_view"]
@@ -172,8 +173,12 @@ def deformed_triangles(body: Body, bt, longest_edges):
 
 def deform_primitive(scene, primitive: str | None) -> str | None:
     """The renderer's primitive for ``scene``: "tet" when a body deforms (its prisms are not
-    rigid: only their tetrahedra are exact) and none or "tet" was asked, else ``primitive``."""
+    rigid: only their tetrahedra are exact) and none or "tet" was asked, else ``primitive``.
+    A turning body traced as per-vertex worldlines (``turning.worldline_body``) also makes
+    "tet" the default; asked for "rigid" or "prism" it is cut into pieces instead."""
     body = next((b for b in scene.bodies if deforming(b)), None)
+    if body is None and primitive is None and any(worldline_body(b) for b in scene.bodies):
+        return "tet"
     if body is None or primitive in (None, "tet"):
         return primitive if body is None else "tet"
     raise SceneError.at(scene.source, body.prim_path, "primitive",
