@@ -88,9 +88,10 @@ def _rod_coordinates(p, t):
     return np.stack([q[..., 0] * c - q[..., 2] * s, q[..., 1], q[..., 0] * s + q[..., 2] * c], axis=-1)
 
 
+@pytest.mark.parametrize("primitive", [None, "rigid"])  # per-vertex worldlines (tet, the default) and pieces
 @pytest.mark.parametrize("light", sorted(LIGHTS))
 @pytest.mark.parametrize("frame", [16.0, 17.5])  # events at t ~ 6-8: inside the samples
-def test_a_rotating_rod_shadows_itself_where_the_march_says(tmp_path, frame, light):
+def test_a_rotating_rod_shadows_itself_where_the_march_says(tmp_path, frame, light, primitive):
     path = tmp_path / "rod.usda"
     path.write_text(STAGE.format(light=LIGHTS[light], angle=20 * RATE))
     stage = Usd.Stage.Open(str(path))
@@ -102,7 +103,7 @@ def test_a_rotating_rod_shadows_itself_where_the_march_says(tmp_path, frame, lig
 
     width, height = 320, 180
     scene = warp_st.load(str(path))
-    image = warp_st.render(scene, frame=frame, width=width, height=height)
+    image = warp_st.render(scene, frame=frame, width=width, height=height, primitive=primitive)
     cam = scene.camera_state(None, frame)
     rod = image.object_id > 0
     t = image.event_time.astype(np.float64)
@@ -136,17 +137,23 @@ def test_a_rotating_rod_shadows_itself_where_the_march_says(tmp_path, frame, lig
     leave = ((sun + u_point) * n_world).sum(-1)
     faces = side & (cos_l > 0.05) & (np.abs(leave) > 0.1)
     assert faces.sum() > 300
-    # The oracle's march starts outside the modelled surface's error (2 TOL) and the box is
-    # shrunk by TOL, so a ray grazing the rod within the modelling error counts as unblocked.
+    # The oracle's march starts outside the modelled surface's error (2 TOL). Blocked: the
+    # ray crosses the box shrunk by TOL; free: it misses the box grown by TOL. A ray grazing
+    # the rod within the modelling error is neither (the tetrahedra put it either side;
+    # e.g. a face receding at (l + u).n ~ -0.1 whose ray leaves through the top face after
+    # entering the exact rod by less than TOL).
     xs, ts = x[faces], t[faces]
     u = np.concatenate([np.linspace(2 * tol, 0.2, 200), np.linspace(0.2, 8.0, 2000)])
     blocked = np.zeros(len(xs), bool)
+    near = np.zeros(len(xs), bool)
     for a in range(0, len(u), 200):
         uu = u[a:a + 200]
-        p = _rod_coordinates(xs[:, None, :] + uu[None, :, None] * sun[faces][:, None, :], ts[:, None] - uu[None, :])
-        blocked |= (np.abs(p) <= HALF - tol).all(-1).any(1)
+        p = np.abs(_rod_coordinates(xs[:, None, :] + uu[None, :, None] * sun[faces][:, None, :],
+                                    ts[:, None] - uu[None, :]))
+        blocked |= (p <= HALF - tol).all(-1).any(1)
+        near |= (p <= HALF + tol).all(-1).any(1)
     dark = lum[faces] < 0.5 * k * cos_l[faces]
-    wrong_dark, wrong_lit = dark & ~blocked, ~dark & blocked
+    wrong_dark, wrong_lit = dark & ~near, ~dark & blocked
     assert blocked.sum() > 10, "the scene must hold real self-shadow"
     # Acne from the neighbouring pieces was 27 % of these pixels at frame 17.5 (before
     # Body.seam); 2 % leaves room for rays grazing the rod within the modelling error.

@@ -165,9 +165,14 @@ def slice_velocities(events: np.ndarray) -> np.ndarray:
 
 def deformed_triangles(body: Body, bt, longest_edges):
     """``bt`` (``extrude.BodyTriangles``) for a deforming body: shaded with its per-slice
-    vertex normals (``deformed_events``), each triangle's size its largest over the samples."""
+    vertex normals (``deformed_events``), each triangle's size its largest over the samples.
+    A triangle whose corners no other triangle shares is shaded with its own face's normal:
+    size 0, so that its shadow rays do not skip its body (``kernels/shade.py``: the skip is
+    for smooth facets near the terminator; a turning box, ``spacetime.turning``, shadows itself)."""
     times = np.unique(np.concatenate([s.samples.times for s in body.surfaces if s.samples is not None]))
     size = np.max([longest_edges(points_at(body, float(t)), bt.triangles) for t in times], axis=0)
+    uses = np.bincount(bt.triangles.reshape(-1), minlength=len(bt.local))
+    size = np.where((uses[bt.triangles] == 1).all(axis=1), 0.0, size)
     return dataclasses.replace(bt, tri_smooth=np.ones(len(bt.triangles), np.int32), tri_size=size)
 
 

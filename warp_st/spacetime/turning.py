@@ -103,7 +103,9 @@ def worldline_cuts(body: Body, tol: np.ndarray, radius: float, chunks: np.ndarra
     sample times (``worldline_times``, chords within half the tolerance ``tol``: the
     tetrahedra take the other half) over a maximal run of consecutive chunks (probe
     indices ``chunks``, ``animation.motion_chunks``) that ``keep`` says the frames reach
-    (None: all, one run). No run: the frames see only the held ends, if anything."""
+    (None: all, one run). No run: the frames see only the held ends, if anything. Each
+    chunk is sampled from its own start, so its samples are the same whichever chunks are
+    kept (the tetrahedra's slices still follow the visibility windows' ends)."""
     keep = np.ones(len(chunks) - 1, dtype=bool) if keep is None else np.asarray(keep, dtype=bool)
     half = 0.5 * np.asarray(tol, dtype=np.float64)
     runs, q = [], 0
@@ -111,12 +113,12 @@ def worldline_cuts(body: Body, tol: np.ndarray, radius: float, chunks: np.ndarra
         if not keep[q]:
             q += 1
             continue
-        end = q
-        while end + 1 < len(keep) and keep[end + 1]:
-            end += 1
-        times = worldline_times(body, half, radius, int(chunks[q]), int(chunks[end + 1]))
-        runs.append(tuple(float(x) for x in times))
-        q = end + 1
+        times = []
+        while q < len(keep) and keep[q]:  # each chunk sampled from its own start
+            part = worldline_times(body, half, radius, int(chunks[q]), int(chunks[q + 1]))
+            times.extend(float(x) for x in part[1 if times else 0:])
+            q += 1
+        runs.append(tuple(times))
     return (WORLDLINES, *runs)
 
 
