@@ -44,7 +44,7 @@ import numpy as np
 from warp_st.core.deform import PointSamples
 from warp_st.core.scene import Body
 
-__all__ = ["WORLDLINES", "worldline_body", "worldline_times", "worldline_cuts", "is_worldlines", "worldline_count",
+__all__ = ["VELOCITY_TOLERANCE", "WORLDLINES", "worldline_body", "worldline_times", "worldline_cuts", "is_worldlines", "worldline_count",
            "worldline_bodies"]
 
 #: The first item of an animated body's cuts (``animation.animation_cuts``) when it is
@@ -66,19 +66,35 @@ def worldline_body(body: Body) -> bool:
     return not np.ptp(m.pivot, axis=0).max() > 0.0 and not np.any(np.asarray(m.hold_velocity) != 0.0)
 
 
+#: Largest difference (c) between a vertex's velocity on its chord (what the tetrahedral
+#: path shades with: Doppler, the light's side) and USD's (the probes') in every probe
+#: interval the chord spans: R |chord rate of L - L'| + |chord velocity - o'|. For a
+#: rotation by theta over the chord at tip speed w R it is ~ w R theta / 2; 2e-3 c moves
+#: the Doppler factor by ~2e-3 at most, half a step of an 8-bit colour channel.
+VELOCITY_TOLERANCE = 2.0e-3
+
+
 def worldline_times(body: Body, tol: np.ndarray, radius: float, first: int = 0, last: int | None = None) -> np.ndarray:
     """Sample times among ``body.motion``'s probe times from probe ``first`` to ``last``
     (None: the last probe), increasing: greedily the longest chords whose bound (module
-    docstring) stays within ``tol`` (per probe) at every probe they span."""
+    docstring) stays within ``tol`` (per probe) at every probe they span and whose vertex
+    velocities stay within VELOCITY_TOLERANCE of the probes' in every interval they span."""
     m = body.motion
     t, o, lin = m.times, m.pivot, m.linear
     n = len(t) if last is None else last + 1
+
+    rate = np.diff(lin, axis=0) / np.diff(t)[:, None, None]  # L' and o' per probe interval
+    vel = np.diff(o, axis=0) / np.diff(t)[:, None]
 
     def fits(k: int, j: int) -> bool:
         f = ((t[k:j + 1] - t[k]) / (t[j] - t[k]))[:, None]
         dev = np.linalg.norm(o[k:j + 1] - (o[k] + f * (o[j] - o[k])), axis=1)
         turn = np.linalg.norm(lin[k:j + 1] - (lin[k] + f[:, :, None] * (lin[j] - lin[k])), ord=2, axis=(1, 2))
-        return bool((dev + radius * turn <= tol[k:j + 1]).all())
+        if not (dev + radius * turn <= tol[k:j + 1]).all():
+            return False
+        dv = np.linalg.norm(vel[k:j] - (o[j] - o[k]) / (t[j] - t[k]), axis=1)
+        dw = np.linalg.norm(rate[k:j] - (lin[j] - lin[k]) / (t[j] - t[k]), ord=2, axis=(1, 2))
+        return bool((dv + radius * dw <= VELOCITY_TOLERANCE).all())
 
     out, k = [first], first
     while k < n - 1:
