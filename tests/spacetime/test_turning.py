@@ -13,6 +13,7 @@ import warp_st
 from warp_st.rendering.camera import pixel_directions
 from warp_st.rendering.renderer import Renderer
 from warp_st.spacetime.animation import animated_bodies, animation_cuts, body_radius, piece_count
+from warp_st.spacetime import turning
 from warp_st.spacetime.turning import VELOCITY_TOLERANCE, is_worldlines, worldline_body, worldline_count
 
 from animation_stages import CUBE, HEADER, orbit, spinning_rod, write
@@ -66,11 +67,16 @@ def _usd_points(path: str, gprim: str, local: np.ndarray, t: float) -> np.ndarra
     return np.array([m.Transform(Gf.Vec3d(*p)) for p in local.tolist()])
 
 
-def test_worldlines_follow_usd_within_the_tolerances(tmp_path):
+@pytest.mark.parametrize("velocities", [True, False])
+def test_worldlines_follow_usd_within_the_tolerances(tmp_path, monkeypatch, velocities):
     """Every vertex at every sample time is USD's point (to the probes' 1e-5), between the
     samples its chord stays within a quarter pixel of USD's path, and its chord velocity
     within VELOCITY_TOLERANCE of USD's plus the probes' own chord error (how much USD's
-    velocity turns over one probe interval)."""
+    velocity turns over one probe interval). Without the velocity rule (which binds for
+    the 0.7c tips: ~ every probe) the chords' second-order error alone needs far fewer
+    samples than the pieces' held orientations."""
+    if not velocities:
+        monkeypatch.setattr(turning, "VELOCITY_TOLERANCE", np.inf)
     path = write(tmp_path, "rod.usda", spinning_rod(0.7))
     scene = warp_st.load(path)
     cams = [scene.camera_state(None, f) for f in (30.0, 60.0)]
@@ -78,6 +84,8 @@ def test_worldlines_follow_usd_within_the_tolerances(tmp_path):
     (_j, pieces), = animation_cuts(scene, cams, **SIZE)
     assert 10 < worldline_count(cuts) <= len(scene.bodies[i].motion.times) - 1  # at most every probe interval
     assert piece_count(pieces) > 10
+    if not velocities:
+        assert worldline_count(cuts) < piece_count(pieces) / 10
     rod = [b for b in animated_bodies(scene, ((i, cuts),))[0] if b.prim_path == "/Rod"]
     assert len(rod) == 1 and rod[0].seam == 0.0 and rod[0].motion is None
     (surface,) = rod[0].surfaces
@@ -104,7 +112,7 @@ def test_worldlines_follow_usd_within_the_tolerances(tmp_path):
         return (_usd_points(path, "/Rod/Bar", local, t + h) - _usd_points(path, "/Rod/Bar", local, t - h)) / (2 * h)
 
     worst = 0.0
-    for k in range(0, len(samples.times) - 1, 97):
+    for k in range(0, len(samples.times) - 1, 97 if velocities else 1):
         a, b = float(samples.times[k]), float(samples.times[k + 1])
         for f in np.linspace(0.1, 0.9, 9):
             t = a + f * (b - a)
@@ -113,7 +121,7 @@ def test_worldlines_follow_usd_within_the_tolerances(tmp_path):
         chord = (samples.points[k + 1] - samples.points[k]) / (b - a)
         # the probes' own chords turn from USD's velocity by at most its change over one probe interval
         slack = float(np.linalg.norm(usd_velocity(a + probe) - usd_velocity(a), axis=1).max())
-        for t in (a, 0.5 * (a + b), b):
+        for t in (a, 0.5 * (a + b), b) if velocities else ():
             # 1e-6: the finite difference's error (h^2 w^3 R / 6 ~ 1e-10 here) and rounding
             assert np.linalg.norm(chord - usd_velocity(t), axis=1).max() <= VELOCITY_TOLERANCE + slack + 1e-6
     assert 0.0 < worst <= tol, worst
