@@ -112,7 +112,7 @@ def test_worldlines_follow_usd_within_the_tolerances(tmp_path, monkeypatch, velo
         return (_usd_points(path, "/Rod/Bar", local, t + h) - _usd_points(path, "/Rod/Bar", local, t - h)) / (2 * h)
 
     worst = 0.0
-    for k in range(0, len(samples.times) - 1, 97 if velocities else 1):
+    for k in range(1, len(samples.times) - 2, 97 if velocities else 1):  # USD holds outside: no finite difference there
         a, b = float(samples.times[k]), float(samples.times[k + 1])
         for f in np.linspace(0.1, 0.9, 9):
             t = a + f * (b - a)
