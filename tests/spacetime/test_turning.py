@@ -49,7 +49,8 @@ def _sliding() -> str:
     (_rolling(True), True),  # decoupled: A = I whatever the pivot does
     (_rolling(False), False),  # coupled on a moving pivot: its pieces (proper time of an accelerated frame)
     (_sliding(), False),  # translation only: the pieces are continuous
-    (orbit('def Sphere "Ball"\n    {\n        double radius = 0.5\n    }'), False),  # an analytic sphere: the rigid path's
+    # an analytic sphere: the rigid path's exact shape
+    (orbit('def Sphere "Ball"\n    {\n        double radius = 0.5\n    }'), False),
 ])
 def test_which_bodies_are_traced_as_worldlines(tmp_path, text, expected):
     scene = warp_st.load(write(tmp_path, "s.usda", text))

@@ -27,9 +27,16 @@ grown greedily while it stays within half the rigid path's tolerance at every pr
 (``animation._tolerances``: half a pixel at the nearest distance any camera can see the
 body), so the chords are within a quarter pixel; the tetrahedra between slices then add at
 most the deforming path's own half pixel (``deform.deform_slices`` splits each sample
-interval for that, and only inside the body's visibility windows).
+interval for that, and only inside the body's visibility windows). The tetrahedral path
+shades with each chord's velocity, so the samples also keep every vertex's chord velocity
+within VELOCITY_TOLERANCE of the probes' in each probe interval it spans (for fast tips
+this rule binds: ~ every probe).
 
-Flat surfaces (no authored normals) get one copy of its corners per triangle, numbered in
+Clipping: only the chunks of the motion the frames reach (``spacetime.reach``) are
+sampled, each from its own start; a run of reached chunks is one deforming body living
+over its times, the held ends no run meets are ``animation``'s held pieces.
+
+Flat surfaces (no authored normals) get one copy of their corners per triangle, numbered in
 the original order (copy k of point i is ordered by (k, i)): the deforming path's per-slice
 vertex normals are then each face's own normal (a box stays a box), and every triangle's
 corners keep their relative order, so neighbouring prisms still split their shared sides
@@ -44,8 +51,8 @@ import numpy as np
 from warp_st.core.deform import PointSamples
 from warp_st.core.scene import Body
 
-__all__ = ["VELOCITY_TOLERANCE", "WORLDLINES", "worldline_body", "worldline_times", "worldline_cuts", "is_worldlines", "worldline_count",
-           "worldline_bodies"]
+__all__ = ["VELOCITY_TOLERANCE", "WORLDLINES", "worldline_body", "worldline_times", "worldline_cuts", "is_worldlines",
+           "worldline_count", "worldline_bodies"]
 
 #: The first item of an animated body's cuts (``animation.animation_cuts``) when it is
 #: traced as per-vertex worldlines; the sample times follow.
