@@ -143,3 +143,12 @@ def test_unshared_corners_keep_every_triangles_order(tmp_path):
     assert np.bincount(tri_new.reshape(-1)).max() == 1  # no corner shared
     np.testing.assert_array_equal(np.asarray(new.points)[tri_new], np.asarray(old.points)[tri_old])
     np.testing.assert_array_equal(np.argsort(tri_new, axis=1), np.argsort(tri_old, axis=1))
+
+
+def test_exact_quadrics_asked_for_keep_the_pieces(tmp_path):
+    """Exact quadrics are the rigid path's: a scene with a turning body asked for them renders
+    its pieces there (not an error of the tetrahedral path)."""
+    scene = warp_st.load(write(tmp_path, "rod.usda", spinning_rod(0.7)))
+    r = Renderer(scene, frames=[30.0], quadrics="exact", **SIZE)
+    assert r.primitive == "rigid"
+    assert not any(is_worldlines(cuts) for _i, cuts in r.animation)

@@ -195,7 +195,8 @@ class Renderer:
         # The rigid path's bottom-level queries are float32: in float64 it serves only scenes
         # whose every body is an exact quadric (then it is exact in float64).
         all_exact = quadrics != "tessellated" and all_exact_quadrics(scene)
-        primitive = deform_primitive(scene, primitive)  # deforming bodies: tetrahedra (docs/spec.md §2.2)
+        # deforming bodies: tetrahedra (docs/spec.md §2.2); turning ones too, unless exact quadrics are asked for
+        primitive = deform_primitive(scene, primitive, worldlines=quadrics != "exact")
         if primitive is None:
             primitive = "rigid" if self.precision == Precision.FLOAT32 or all_exact else "prism"
         if primitive == "rigid" and self.precision != Precision.FLOAT32 and not all_exact:

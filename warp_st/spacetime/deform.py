@@ -176,13 +176,14 @@ def deformed_triangles(body: Body, bt, longest_edges):
     return dataclasses.replace(bt, tri_smooth=np.ones(len(bt.triangles), np.int32), tri_size=size)
 
 
-def deform_primitive(scene, primitive: str | None) -> str | None:
+def deform_primitive(scene, primitive: str | None, worldlines: bool = True) -> str | None:
     """The renderer's primitive for ``scene``: "tet" when a body deforms (its prisms are not
     rigid: only their tetrahedra are exact) and none or "tet" was asked, else ``primitive``.
     A turning body traced as per-vertex worldlines (``turning.worldline_body``) also makes
-    "tet" the default; asked for "rigid" or "prism" it is cut into pieces instead."""
+    "tet" the default unless ``worldlines`` is False (exact quadrics asked for: the rigid
+    path); asked for "rigid" or "prism" it is cut into pieces instead."""
     body = next((b for b in scene.bodies if deforming(b)), None)
-    if body is None and primitive is None and any(worldline_body(b) for b in scene.bodies):
+    if body is None and primitive is None and worldlines and any(worldline_body(b) for b in scene.bodies):
         return "tet"
     if body is None or primitive in (None, "tet"):
         return primitive if body is None else "tet"
