@@ -9,7 +9,8 @@ ComputeLocalToWorldTransform. A pixel is the rod's when the march meets the box 
 TOL, and not when it misses the box grown by TOL (TOL = 0.01 > the half-pixel modelling
 error, ~0.004 at the rod here); a march-silhouette pixel is one the two disagree on, or
 whose 3 x 3 neighbours the shrunk march does not agree on; "away from the silhouette" is
-not within 1 px of one.
+not within 1 px of one. The same march checks the rod's shadow on the floor (no light
+specks through seams) and the rod's Doppler.
 """
 from __future__ import annotations
 
@@ -112,3 +113,33 @@ def test_spinning_rod_doppler_follows_the_closed_form():
     assert np.ptp(expected) > 0.3  # the rotation's Doppler is in view
     err = np.abs(image.doppler[rod].astype(np.float64) - expected)
     assert err.max() <= 5e-3, float(err.max())
+
+
+def test_spinning_rod_shadow_on_the_floor_has_no_light_specks():
+    """Every floor pixel's shadow ray (towards the sun, back in time: finite c) marched in
+    float64 through the closed-form box: where it crosses the box shrunk by TOL the floor
+    must be dark, where it misses the box grown by TOL lit (the pieces let 19 rays through
+    their seams here: light specks in the rod's shadow). Dark: under half the lit floor's
+    brightness (the floor is flat and the sun distant: one brightness where lit)."""
+    width, height, frame = 320, 180, 30.0
+    scene = warp_st.load(str(ROD))
+    image = warp_st.render(scene, frame=frame, width=width, height=height)
+    floor = image.object_id == 1 + [b.prim_path for b in scene.bodies].index("/Ground")
+    cam = scene.camera_state(None, frame)
+    t = image.event_time[floor].astype(np.float64)
+    x = np.asarray(cam.position, dtype=np.float64) + (frame - t)[:, None] * pixel_directions(cam, width, height)[floor]
+    sun = np.asarray(scene.lights[0].direction, dtype=np.float64)
+    # the ray can meet the bar only inside its slab of y (sun[1] > 0: the sun is up)
+    u0, u1 = (1.0 - HALF[1] - TOL - x[:, 1]) / sun[1], (1.0 + HALF[1] + TOL - x[:, 1]) / sun[1]
+    f = np.linspace(0.0, 1.0, 400)
+    blocked, near = np.zeros(len(x), bool), np.zeros(len(x), bool)
+    for a in range(0, len(x), 2000):
+        u = u0[a:a + 2000, None] + f[None] * (u1 - u0)[a:a + 2000, None]
+        q = np.abs(_rod_coordinates(x[a:a + 2000, None, :] + u[..., None] * sun, t[a:a + 2000, None] - u))
+        blocked[a:a + 2000] = (q <= HALF - TOL).all(-1).any(1)
+        near[a:a + 2000] = (q <= HALF + TOL).all(-1).any(1)
+    lum = image.rgba[..., :3].sum(-1)[floor].astype(np.float64)
+    dark = lum < 0.5 * np.median(lum[~near])
+    assert blocked.sum() > 1000  # the rod's shadow is in view (~1,500 pixels)
+    assert (~dark & blocked).sum() == 0, int((~dark & blocked).sum())
+    assert (dark & ~near).sum() == 0, int((dark & ~near).sum())
