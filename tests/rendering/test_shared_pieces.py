@@ -74,7 +74,7 @@ def _pieces(tmp_path, name):
     """The stage's scene, and the same with its animated body replaced by the pieces the
     renderer cuts it into at W x H (bodies now, so no renderer cuts them again)."""
     scene = warp_st.load(write(tmp_path, f"{name}.usda", STAGES[name]))
-    cuts = Renderer(scene, frames=[FRAMES[name]], width=W, height=H).animation
+    cuts = Renderer(scene, frames=[FRAMES[name]], width=W, height=H, primitive="rigid").animation
     bodies, _ = animated_bodies(scene, cuts)
     return scene, dataclasses.replace(scene, bodies=bodies)
 
@@ -84,7 +84,7 @@ def test_a_turning_body_pieces_share_one_bottom_level(tmp_path, name):
     """Every piece of the animated body holds the same shape: one wp.Mesh for the body and
     one for the floor, whatever the piece count (hundreds here)."""
     scene, _ = _pieces(tmp_path, name)
-    db = Renderer(scene, frames=[FRAMES[name]], width=W, height=H).database
+    db = Renderer(scene, frames=[FRAMES[name]], width=W, height=H, primitive="rigid").database
     path = "/Rod" if name == "spinning" else "/Box"
     pieces = [i for i, b in enumerate(db.shapes.bodies) if b.prim_path == path]
     assert len(pieces) > 100
@@ -103,8 +103,8 @@ def test_the_shared_bottom_level_renders_as_per_piece_copies(tmp_path, name):
     _, shared = _pieces(tmp_path, name)
     own = dataclasses.replace(shared, bodies=tuple(dataclasses.replace(b, piece_linear=None) for b in shared.bodies))
     frame = FRAMES[name]
-    a = Renderer(shared, frames=[frame], width=W, height=H)
-    b = Renderer(own, frames=[frame], width=W, height=H)
+    a = Renderer(shared, frames=[frame], width=W, height=H, primitive="rigid")
+    b = Renderer(own, frames=[frame], width=W, height=H, primitive="rigid")
     assert a.database.bottom.count == 2 and b.database.bottom.count > 100
     ia, ib = a.render(frame), b.render(frame)
     moving = (ia.object_id > 1) | (ib.object_id > 1)  # the pieces' pixels: ids past the floor's (1)

@@ -176,15 +176,20 @@ def test_validate_lists_animated_bodies(tmp_path, capsys):
     assert main(["validate", path]) == 0
     out = capsys.readouterr().out
     (line,) = [line for line in out.splitlines() if line.startswith("INFO")]
+    # the rod turns on a pivot at rest: the default render traces it as per-vertex worldlines
     match = re.fullmatch(rf"INFO {re.escape(path)}:/Rod: animated: 2 time samples \(0 to 100\), pivot speed 0 to 0 c, "
-                         r"body points up to (\S+) c \(coupled\); (\d+) motion segments at 640 x 360", line)
+                         r"body points up to (\S+) c \(coupled\); per-vertex worldlines, (\d+) sample intervals at "
+                         r"640 x 360 \(tetrahedral path\)", line)
     assert match, line
     assert abs(float(match.group(1)) - 0.7 * np.sqrt(2.0 ** 2 + 0.2 ** 2 + 0.2 ** 2) / 2.0) <= 1e-3
     scene = warp_st.load(path)
     cameras = [scene.camera_state(None, float(f)) for f in np.linspace(0, 100, 101)]
     size = dict(width=DEFAULT_RESOLUTION[0], height=DEFAULT_RESOLUTION[1])
-    (cuts,) = animation_cuts(scene, cameras, reach=functools.partial(motion_reach, cameras=cameras, max_depth=4), **size)
-    assert int(match.group(2)) == piece_count(cuts[1])
+    reach = functools.partial(motion_reach, cameras=cameras, max_depth=4)
+    (lines,) = animation_cuts(scene, cameras, reach=reach, worldlines=True, **size)
+    assert int(match.group(2)) == piece_count(lines[1]) > 0
+    (cuts,) = animation_cuts(scene, cameras, reach=reach, **size)  # its pieces (primitive rigid or prism)
+    assert piece_count(lines[1]) < piece_count(cuts[1])  # far fewer samples than held orientations
     # the rod is 14 from the camera and unlit: the frames see it until about t = 88, the
     # chunks after that are not cut
     (whole,) = animation_cuts(scene, cameras, **size)

@@ -107,4 +107,5 @@ def _animation_problems(scene, label: str) -> list:
                               is None else int(scene.settings.max_depth),
                               infinite_modes=[LightSpeed(c.light_speed) == LightSpeed.INFINITE for c in cameras])
     return [Problem("info", label, path, None, text, "animation")
-            for path, text in animation_report(scene, cameras, width=width, height=height, reach=reach)] + lights
+            for path, text in animation_report(scene, cameras, width=width, height=height, reach=reach,
+                                               worldlines=True)] + lights  # as the default render traces them

@@ -92,8 +92,9 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         the render origin), u = v + W (x - o(t)) with o(t) = o + v (t - t_ref) the pivot;
         a body that does not turn gives (v, its gamma) as is. Decoupled: gamma 1.
 
-        A deforming body (decoupled, §2.2): the barycentric blend (``lam``) of the corners'
-        point velocities over the slice interval holding the hit. Tetrahedron ``prim``'s
+        A deforming body (§2.2): the barycentric blend (``lam``) of the corners' point
+        velocities over the slice interval holding the hit; gamma 1 when decoupled, else
+        of that velocity (a coupled turning body's worldlines, §2.1 0.8.0). Tetrahedron ``prim``'s
         vertex indices ascend and its lowest, a, is its triangle's lowest at the bottom
         slice; a top corner is a bottom point's index + the body's points per slice, so
         exactly the corners >= a + stride are tops."""
@@ -103,7 +104,10 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
             top = idx[0] + stride
             u = (lam[0] * corner_velocity(shd, idx[0], top, stride) + lam[1] * corner_velocity(shd, idx[1], top, stride)
                  + lam[2] * corner_velocity(shd, idx[2], top, stride) + lam[3] * corner_velocity(shd, idx[3], top, stride))
-            return u, scalar(1.0)
+            g = scalar(1.0)
+            if shd.body_decoupled[body] == 0:  # spacetime/turning.py
+                g = scalar(1.0) / wp.sqrt(wp.max(scalar(1.0) - wp.dot(u, u), scalar(MIN_INV_GAMMA2)))
+            return u, g
         v = shd.body_velocity[body]
         g = shd.body_gamma[body]
         if shd.body_spins[body] != 0:

@@ -195,7 +195,8 @@ class Renderer:
         # The rigid path's bottom-level queries are float32: in float64 it serves only scenes
         # whose every body is an exact quadric (then it is exact in float64).
         all_exact = quadrics != "tessellated" and all_exact_quadrics(scene)
-        primitive = deform_primitive(scene, primitive)  # deforming bodies: tetrahedra (docs/spec.md §2.2)
+        # deforming bodies: tetrahedra (docs/spec.md §2.2); turning ones too, unless exact quadrics are asked for
+        primitive = deform_primitive(scene, primitive, worldlines=quadrics != "exact")
         if primitive is None:
             primitive = "rigid" if self.precision == Precision.FLOAT32 or all_exact else "prism"
         if primitive == "rigid" and self.precision != Precision.FLOAT32 and not all_exact:
@@ -278,7 +279,8 @@ class Renderer:
         # Only the chunks of their motion some frame can reach (spacetime/reach.py) are cut.
         reach = functools.partial(motion_reach, cameras=cams, infinite_modes=[m == LightSpeed.INFINITE for m in modes],
                                   max_depth=self.max_depth, shutter=shutter)
-        self.animation = animation_cuts(self.scene, ends, width=self.width, height=self.height, reach=reach)
+        self.animation = animation_cuts(self.scene, ends, width=self.width, height=self.height, reach=reach,
+                                        worldlines=self.primitive == "tet")  # turning bodies: spacetime/turning.py
         self.object_of = None  # the scene body of each rendered body (None: the same)
         if self.animation:  # the cache holds the bodies only: an entry must not keep its scene alive
             bodies, self.object_of = cache.tessellated(("animation", self.animation),

@@ -32,6 +32,7 @@ from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.motion import velocity_gradient
 from warp_st.core.scene import Body, Scene
 from warp_st.spacetime.adaptive import _camera_stretch, min_pixel_angle
+from warp_st.spacetime.turning import is_worldlines, worldline_bodies, worldline_body, worldline_count, worldline_cuts
 
 __all__ = ["animation_cuts", "animated_bodies", "piece_bodies", "piece_count", "body_radius", "motion_chunks",
            "FLOOR_FRACTION"]
@@ -219,16 +220,21 @@ def _body_cuts(body: Body, tol: np.ndarray, radius: float, keep=None) -> tuple[t
 
 def piece_count(cuts) -> int:
     """How many pieces ``_body_cuts``' rows ``cuts`` make: one per row after the first that
-    is not a gap, and the two held ends."""
+    is not a gap, and the two held ends; for ``turning.worldline_cuts``, the sample intervals."""
+    if is_worldlines(cuts):
+        return worldline_count(cuts)
     return sum(1 for row in cuts[1:] if not np.isinf(row[2])) + 2
 
 
-def animation_cuts(scene: Scene, cameras, *, width: int, height: int, pixels: float = 0.5, reach=None) -> tuple:
+def animation_cuts(scene: Scene, cameras, *, width: int, height: int, pixels: float = 0.5, reach=None,
+                   worldlines: bool = False) -> tuple:
     """((body index, cut times), ...) for every animated body of ``scene`` (empty: none),
     the pieces within ``pixels`` pixels for every camera state of ``cameras``. ``reach``:
     ``reach(scene, margins) -> {body index: per chunk, whether the frames reach it}``
     (``spacetime.reach.motion_reach``; margins: per body index, how far its pieces may
-    stray from each of its probes); None: every chunk is cut."""
+    stray from each of its probes); None: every chunk is cut. ``worldlines``: turning
+    bodies (``turning.worldline_body``) get ``turning.worldline_cuts`` instead (the
+    tetrahedral path's per-vertex worldlines, over the chunks ``reach`` keeps)."""
     cameras = list(cameras)
     animated = [i for i, b in enumerate(scene.bodies) if b.motion is not None and b.surfaces]
     if not animated:
@@ -237,7 +243,9 @@ def animation_cuts(scene: Scene, cameras, *, width: int, height: int, pixels: fl
     radii = {i: body_radius(scene.bodies[i]) for i in animated}
     tols = {i: _tolerances(scene.bodies[i], radii[i], cameras, angle, pixels) for i in animated}
     kept = reach(scene, tols) if reach is not None and cameras else {}
-    return tuple((i, _body_cuts(scene.bodies[i], tols[i], radii[i], kept.get(i))) for i in animated)
+    return tuple((i, worldline_cuts(scene.bodies[i], tols[i], radii[i], motion_chunks(scene.bodies[i], radii[i]),
+                                    kept.get(i)) if worldlines and worldline_body(scene.bodies[i])
+                  else _body_cuts(scene.bodies[i], tols[i], radii[i], kept.get(i))) for i in animated)
 
 
 def _moved(surface, linear: np.ndarray, shift: np.ndarray):
@@ -346,23 +354,39 @@ def _spin(m, t_o: float, velocity: np.ndarray, decoupled: bool):
     return velocity_gradient(middle, rate, velocity, decoupled) if np.any(rate) else None
 
 
+def _held_ends(body: Body):
+    """(before, after): ``body``'s pieces holding its first probe's pose before it and its
+    last's after it (None where its lifetime has none)."""
+    t = body.motion.times
+    pieces = piece_bodies(body, ((float(t[0]),) * 3, (float(t[-1]), float(t[-1]), np.inf)))
+    return (next((p for p in pieces if p.lifetime[1] <= t[0]), None),
+            next((p for p in pieces if p.lifetime[0] >= t[-1]), None))
+
+
 def animated_bodies(scene: Scene, cuts: tuple) -> tuple[tuple[Body, ...], np.ndarray]:
     """The bodies of ``scene`` with every animated one replaced by its pieces (in place,
     stage order kept) and each new body's index in ``scene.bodies``, (B',) int32."""
     chosen = dict(cuts)
     bodies, object_of = [], []
     for i, body in enumerate(scene.bodies):
-        parts = piece_bodies(body, chosen[i]) if i in chosen else [body]
+        if i not in chosen:
+            parts = [body]
+        elif is_worldlines(chosen[i]):
+            parts = worldline_bodies(body, chosen[i], lambda: _held_ends(body))
+        else:
+            parts = piece_bodies(body, chosen[i])
         bodies.extend(parts)
         object_of.extend([i] * len(parts))
     return tuple(bodies), np.array(object_of, dtype=np.int32)
 
 
-def animation_report(scene: Scene, cameras, *, width: int, height: int, reach=None) -> list[tuple[str, str]]:
+def animation_report(scene: Scene, cameras, *, width: int, height: int, reach=None,
+                     worldlines: bool = False) -> list[tuple[str, str]]:
     """(body prim path, one line) per animated body: its USD samples, its pivot's speed
-    range and the pieces it is rendered as for ``cameras`` at ``width`` x ``height``
-    (``reach``: as for ``animation_cuts``)."""
-    cuts = dict(animation_cuts(scene, cameras, width=width, height=height, reach=reach)) if cameras else {}
+    range and the pieces (or per-vertex worldline samples) it is rendered as for
+    ``cameras`` at ``width`` x ``height`` (``reach``, ``worldlines``: as for ``animation_cuts``)."""
+    cuts = dict(animation_cuts(scene, cameras, width=width, height=height, reach=reach,
+                               worldlines=worldlines)) if cameras else {}
     lines = []
     for i, body in enumerate(scene.bodies):
         m = body.motion
@@ -375,7 +399,10 @@ def animation_report(scene: Scene, cameras, *, width: int, height: int, reach=No
         text = (f"animated: {len(samples)} time samples ({samples[0]:g} to {samples[-1]:g}), pivot speed "
                 f"{float(speeds.min()):.4g} to {float(speeds.max()):.4g} c, body points up to {fastest:.4g} c"
                 f" ({'Lorentz-decoupled' if body.decoupled else 'coupled'})")
-        if i in cuts:
+        if i in cuts and is_worldlines(cuts[i]):
+            text += (f"; per-vertex worldlines, {worldline_count(cuts[i])} sample intervals at {width} x {height}"
+                     f" (tetrahedral path)")
+        elif i in cuts:
             text += f"; {piece_count(cuts[i])} motion segments at {width} x {height}"
         lines.append((body.prim_path, text))
     return lines

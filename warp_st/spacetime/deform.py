@@ -28,6 +28,7 @@ from warp_st.core.deform import deforming, surface_hull_points
 from warp_st.core.scene import Body, SceneError, surface_keep, surface_triangles
 from warp_st.spacetime.adaptive import _camera_stretch, min_pixel_angle
 from warp_st.spacetime.animation import FLOOR_FRACTION
+from warp_st.spacetime.turning import worldline_body
 
 __all__ = ["DEFORM_TOLERANCE", "deforming", "deform_primitive", "deform_slices", "deformed_events", "deformed_triangles",
            "slice_velocities", "SliceView", "slice_view"]
@@ -164,16 +165,26 @@ def slice_velocities(events: np.ndarray) -> np.ndarray:
 
 def deformed_triangles(body: Body, bt, longest_edges):
     """``bt`` (``extrude.BodyTriangles``) for a deforming body: shaded with its per-slice
-    vertex normals (``deformed_events``), each triangle's size its largest over the samples."""
+    vertex normals (``deformed_events``), each triangle's size its largest over the samples.
+    A triangle whose corners no other triangle shares is shaded with its own face's normal:
+    size 0, so that its shadow rays do not skip its body (``kernels/shade.py``: the skip is
+    for smooth facets near the terminator; a turning box, ``spacetime.turning``, shadows itself)."""
     times = np.unique(np.concatenate([s.samples.times for s in body.surfaces if s.samples is not None]))
     size = np.max([longest_edges(points_at(body, float(t)), bt.triangles) for t in times], axis=0)
+    uses = np.bincount(bt.triangles.reshape(-1), minlength=len(bt.local))
+    size = np.where((uses[bt.triangles] == 1).all(axis=1), 0.0, size)
     return dataclasses.replace(bt, tri_smooth=np.ones(len(bt.triangles), np.int32), tri_size=size)
 
 
-def deform_primitive(scene, primitive: str | None) -> str | None:
+def deform_primitive(scene, primitive: str | None, worldlines: bool = True) -> str | None:
     """The renderer's primitive for ``scene``: "tet" when a body deforms (its prisms are not
-    rigid: only their tetrahedra are exact) and none or "tet" was asked, else ``primitive``."""
+    rigid: only their tetrahedra are exact) and none or "tet" was asked, else ``primitive``.
+    A turning body traced as per-vertex worldlines (``turning.worldline_body``) also makes
+    "tet" the default unless ``worldlines`` is False (exact quadrics asked for: the rigid
+    path); asked for "rigid" or "prism" it is cut into pieces instead."""
     body = next((b for b in scene.bodies if deforming(b)), None)
+    if body is None and primitive is None and worldlines and any(worldline_body(b) for b in scene.bodies):
+        return "tet"
     if body is None or primitive in (None, "tet"):
         return primitive if body is None else "tet"
     raise SceneError.at(scene.source, body.prim_path, "primitive",

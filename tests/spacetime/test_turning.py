@@ -1,0 +1,154 @@
+"""Turning rigid bodies as per-vertex worldlines (spacetime/turning.py, docs/spec.md §2.1 0.8.0).
+
+Oracles: USD's own ComputeLocalToWorldTransform at every sample time and at dense times
+between them (the chords' error bound), finite differences of it (the chords' velocities),
+and the index order the prisms' tetrahedra are split by (watertightness)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pxr import Gf, Usd, UsdGeom
+
+import warp_st
+from warp_st.rendering.camera import pixel_directions
+from warp_st.rendering.renderer import Renderer
+from warp_st.spacetime.animation import animated_bodies, animation_cuts, body_radius, piece_count
+from warp_st.spacetime import turning
+from warp_st.spacetime.turning import VELOCITY_TOLERANCE, is_worldlines, worldline_body, worldline_count
+
+from animation_stages import CUBE, HEADER, orbit, spinning_rod, write
+
+SIZE = dict(width=160, height=90)
+
+
+def _rolling(decoupled: bool) -> str:
+    coupling = "custom bool spacetime:lorentzDecoupled = true" if decoupled else ""
+    return HEADER + f'''def Xform "Box" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{{
+    {coupling}
+    double3 xformOp:translate.timeSamples = {{ 0: (-5, 0, 0), 100: (5, 0, 0) }}
+    double xformOp:rotateZ.timeSamples = {{ 0: 0, 100: -300 }}
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateZ"]
+    {CUBE}
+}}
+'''
+
+
+def _sliding() -> str:
+    return HEADER + f'''def Xform "Box" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{{
+    double3 xformOp:translate.timeSamples = {{ 0: (-5, 0, 0), 100: (5, 0, 0) }}
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    {CUBE}
+}}
+'''
+
+
+@pytest.mark.parametrize("text, expected", [
+    (spinning_rod(0.7), True),  # coupled, its pivot at rest: A(v) = I
+    (_rolling(True), True),  # decoupled: A = I whatever the pivot does
+    (_rolling(False), False),  # coupled on a moving pivot: its pieces (proper time of an accelerated frame)
+    (_sliding(), False),  # translation only: the pieces are continuous
+    # an analytic sphere: the rigid path's exact shape
+    (orbit('def Sphere "Ball"\n    {\n        double radius = 0.5\n    }'), False),
+])
+def test_which_bodies_are_traced_as_worldlines(tmp_path, text, expected):
+    scene = warp_st.load(write(tmp_path, "s.usda", text))
+    (body,) = [b for b in scene.bodies if b.motion is not None]
+    assert worldline_body(body) is expected
+    cam = scene.camera_state(None, 50.0)
+    (_i, cuts), = animation_cuts(scene, [cam], worldlines=True, **SIZE)
+    assert is_worldlines(cuts) is expected
+    assert (Renderer(scene, frames=[50.0], **SIZE).primitive == "tet") is expected  # the default path
+
+
+def _usd_points(path: str, gprim: str, local: np.ndarray, t: float) -> np.ndarray:
+    stage = Usd.Stage.Open(path)
+    m = UsdGeom.Xformable(stage.GetPrimAtPath(gprim)).ComputeLocalToWorldTransform(Usd.TimeCode(t))
+    return np.array([m.Transform(Gf.Vec3d(*p)) for p in local.tolist()])
+
+
+@pytest.mark.parametrize("velocities", [True, False])
+def test_worldlines_follow_usd_within_the_tolerances(tmp_path, monkeypatch, velocities):
+    """Every vertex at every sample time is USD's point (to the probes' 1e-5), between the
+    samples its chord stays within a quarter pixel of USD's path, and its chord velocity
+    within VELOCITY_TOLERANCE of USD's plus the probes' own chord error (how much USD's
+    velocity turns over one probe interval). Without the velocity rule (which binds for
+    the 0.7c tips: ~ every probe) the chords' second-order error alone needs far fewer
+    samples than the pieces' held orientations."""
+    if not velocities:
+        monkeypatch.setattr(turning, "VELOCITY_TOLERANCE", np.inf)
+    path = write(tmp_path, "rod.usda", spinning_rod(0.7))
+    scene = warp_st.load(path)
+    cams = [scene.camera_state(None, f) for f in (30.0, 60.0)]
+    (i, cuts), = animation_cuts(scene, cams, worldlines=True, **SIZE)
+    (_j, pieces), = animation_cuts(scene, cams, **SIZE)
+    assert 10 < worldline_count(cuts) <= len(scene.bodies[i].motion.times) - 1  # at most every probe interval
+    assert piece_count(pieces) > 10
+    if not velocities:
+        assert worldline_count(cuts) < piece_count(pieces) / 10
+    rod = [b for b in animated_bodies(scene, ((i, cuts),))[0] if b.prim_path == "/Rod"]
+    assert len(rod) == 1 and rod[0].seam == 0.0 and rod[0].motion is None
+    (surface,) = rod[0].surfaces
+    samples = surface.samples
+    assert len(samples.times) == worldline_count(cuts) + 1
+    # the unshared corners, back in the Bar's unit cube (the Bar scales it by (4, 0.4, 0.4))
+    local = (np.asarray(surface.points) - scene.bodies[i].motion.static_pivot) / np.array([4.0, 0.4, 0.4])
+    assert np.allclose(np.abs(local), 0.5)
+    radius = body_radius(scene.bodies[i])
+    for k in range(0, len(samples.times), 37):
+        t = float(samples.times[k])
+        np.testing.assert_allclose(samples.points[k], _usd_points(path, "/Rod/Bar", local, t),
+                                   atol=2e-5 * (1.0 + radius))  # the probes follow USD within 1e-5 (1 + |p|)
+    # Between samples: the chord against USD at 9 times per interval, within half of half a
+    # pixel (the tetrahedra take the other half) at the nearest the cameras see the rod
+    # (their distance to the pivot less the radius), plus the probes' 1e-5 (1 + |p|) of USD.
+    n = pixel_directions(cams[0], SIZE["width"], SIZE["height"])
+    angle = float(np.arccos(np.clip(np.sum(n[45, 80] * n[45, 81]), -1.0, 1.0)))  # a centre pixel's
+    near = min(float(np.linalg.norm(c.position - scene.bodies[i].motion.static_pivot)) for c in cams) - radius
+    tol = 0.25 * angle * near + 2e-5 * (1.0 + radius)
+    probe = float(np.diff(scene.bodies[i].motion.times).max())
+
+    def usd_velocity(t, h=1e-4):
+        return (_usd_points(path, "/Rod/Bar", local, t + h) - _usd_points(path, "/Rod/Bar", local, t - h)) / (2 * h)
+
+    worst = 0.0
+    for k in range(1, len(samples.times) - 2, 97 if velocities else 1):  # USD holds outside: no finite difference there
+        a, b = float(samples.times[k]), float(samples.times[k + 1])
+        for f in np.linspace(0.1, 0.9, 9):
+            t = a + f * (b - a)
+            worst = max(worst, float(np.linalg.norm(samples.at(t) - _usd_points(path, "/Rod/Bar", local, t),
+                                                    axis=1).max()))
+        chord = (samples.points[k + 1] - samples.points[k]) / (b - a)
+        # the probes' own chords turn from USD's velocity by at most its change over one probe interval
+        slack = float(np.linalg.norm(usd_velocity(a + probe) - usd_velocity(a), axis=1).max())
+        for t in (a, 0.5 * (a + b), b) if velocities else ():
+            # 1e-6: the finite difference's error (h^2 w^3 R / 6 ~ 1e-10 here) and rounding
+            assert np.linalg.norm(chord - usd_velocity(t), axis=1).max() <= VELOCITY_TOLERANCE + slack + 1e-6
+    assert 0.0 < worst <= tol, worst
+
+
+def test_unshared_corners_keep_every_triangles_order(tmp_path):
+    """The flat box gets a copy of its corners per triangle, numbered so that every
+    triangle's corners keep their order (the prisms' tetrahedra split their shared sides
+    by it: the tube stays watertight), and at the same places."""
+    scene = warp_st.load(write(tmp_path, "rod.usda", spinning_rod(0.7)))
+    body = scene.bodies[[b.prim_path for b in scene.bodies].index("/Rod")]
+    cam = scene.camera_state(None, 30.0)
+    (_i, cuts), = animation_cuts(scene, [cam], worldlines=True, **SIZE)
+    (rod,) = [b for b in animated_bodies(scene, ((scene.bodies.index(body), cuts),))[0] if b.prim_path == "/Rod"]
+    old, new = body.surfaces[0], rod.surfaces[0]
+    tri_old, tri_new = np.asarray(old.triangles), np.asarray(new.triangles)
+    assert len(new.points) == 3 * len(tri_old)
+    assert np.bincount(tri_new.reshape(-1)).max() == 1  # no corner shared
+    np.testing.assert_array_equal(np.asarray(new.points)[tri_new], np.asarray(old.points)[tri_old])
+    np.testing.assert_array_equal(np.argsort(tri_new, axis=1), np.argsort(tri_old, axis=1))
+
+
+def test_exact_quadrics_asked_for_keep_the_pieces(tmp_path):
+    """Exact quadrics are the rigid path's: a scene with a turning body asked for them renders
+    its pieces there (not an error of the tetrahedral path)."""
+    scene = warp_st.load(write(tmp_path, "rod.usda", spinning_rod(0.7)))
+    r = Renderer(scene, frames=[30.0], quadrics="exact", **SIZE)
+    assert r.primitive == "rigid"
+    assert not any(is_worldlines(cuts) for _i, cuts in r.animation)

@@ -1,0 +1,201 @@
+"""Turning rigid bodies as per-vertex worldlines: watertight by construction (docs/spec.md §2.1, 0.8.0).
+
+A rigidly animated body cut into pieces of uniform motion (``spacetime.animation``) holds
+one orientation per piece, so where the orientation steps between pieces a primary ray can
+slip between them (the spinning rod's seam holes). Here a turning body instead becomes a
+deforming body (docs/spec.md §2.2): each vertex i moves linearly between common sample
+times s_k, x_i(s_k) = o(s_k) + (p_i - o(t_s)) L(s_k) (``core.motion.BodyMotion``), so its
+world-tube is continuous (the tetrahedra between slices share their faces) and the
+existing tetrahedral path traces it, with point velocities for Doppler and shading.
+
+Which bodies (``worldline_body``): an animated body whose linear part L changes (it turns
+or scales), made of meshes only (no analytic sphere or quadric: their exact shapes are the
+rigid path's), and Lorentz-decoupled or with its pivot at rest over all its probes and
+held motion. Then A(v) = I at every time, so x_i above is USD's world-tube exactly (no
+choice of v at a sample), and proper time is unchanged: t - t_ref (decoupled, or a pivot
+at rest: §2.1's integral of dt / gamma with gamma = 1). A coupled body turning on a moving
+pivot (a rolling wheel, a moon on an orbit) keeps its pieces: the tetrahedral path's proper
+time (§2 per body) and shading would not follow its pivot's accelerated frame.
+
+Error. Between two samples a and b, vertex i is at the chord of its path, and USD (the
+probes' linear interpolation, within PROBE_TOLERANCE of USD) at o(t) + r L(t), |r| <= R:
+the distance is at most |o(t) - chord_o(t)| + R |L(t) - chord_L(t)|_2, both piecewise
+linear in t between probes, so largest at a probe: checked at every probe between a and b
+(``worldline_times``). For a rotation by theta over [a, b] that is R (1 - cos(theta / 2))
+~ R theta^2 / 8 (second order; a held orientation errs by ~ R theta / 2). The samples are
+grown greedily while it stays within half the rigid path's tolerance at every probe
+(``animation._tolerances``: half a pixel at the nearest distance any camera can see the
+body), so the chords are within a quarter pixel; the tetrahedra between slices then add at
+most the deforming path's own half pixel (``deform.deform_slices`` splits each sample
+interval for that, and only inside the body's visibility windows). The tetrahedral path
+shades with each chord's velocity, so the samples also keep every vertex's chord velocity
+within VELOCITY_TOLERANCE of the probes' in each probe interval it spans (for fast tips
+this rule binds: ~ every probe).
+
+Clipping: only the chunks of the motion the frames reach (``spacetime.reach``) are
+sampled, each from its own start; a run of reached chunks is one deforming body living
+over its times, the held ends no run meets are ``animation``'s held pieces.
+
+Flat surfaces (no authored normals) get one copy of their corners per triangle, numbered in
+the original order (copy k of point i is ordered by (k, i)): the deforming path's per-slice
+vertex normals are then each face's own normal (a box stays a box), and every triangle's
+corners keep their relative order, so neighbouring prisms still split their shared sides
+alike (``extrude._prism_tets``' rule) and the tube stays watertight.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from warp_st.core.deform import PointSamples
+from warp_st.core.scene import Body
+
+__all__ = ["VELOCITY_TOLERANCE", "WORLDLINES", "worldline_body", "worldline_times", "worldline_cuts", "is_worldlines",
+           "worldline_count", "worldline_bodies"]
+
+#: The first item of an animated body's cuts (``animation.animation_cuts``) when it is
+#: traced as per-vertex worldlines; the sample times follow.
+WORLDLINES = "worldlines"
+
+
+def worldline_body(body: Body) -> bool:
+    """Whether ``body`` is traced as per-vertex worldlines (module docstring)."""
+    m = body.motion
+    if m is None or not body.surfaces:
+        return False
+    if any(s.sphere is not None or s.quadric is not None or s.samples is not None for s in body.surfaces):
+        return False
+    if not np.ptp(np.asarray(m.linear, dtype=np.float64), axis=0).max() > 0.0:
+        return False
+    if body.decoupled:
+        return True
+    return not np.ptp(m.pivot, axis=0).max() > 0.0 and not np.any(np.asarray(m.hold_velocity) != 0.0)
+
+
+#: Largest difference (c) between a vertex's velocity on its chord (what the tetrahedral
+#: path shades with: Doppler, the light's side) and USD's (the probes') in every probe
+#: interval the chord spans: R |chord rate of L - L'| + |chord velocity - o'|. For a
+#: rotation by theta over the chord at tip speed w R it is ~ w R theta / 2; 2e-3 c moves
+#: the Doppler factor by ~2e-3 at most, half a step of an 8-bit colour channel.
+VELOCITY_TOLERANCE = 2.0e-3
+
+
+def worldline_times(body: Body, tol: np.ndarray, radius: float, first: int = 0, last: int | None = None) -> np.ndarray:
+    """Sample times among ``body.motion``'s probe times from probe ``first`` to ``last``
+    (None: the last probe), increasing: greedily the longest chords whose bound (module
+    docstring) stays within ``tol`` (per probe) at every probe they span and whose vertex
+    velocities stay within VELOCITY_TOLERANCE of the probes' in every interval they span."""
+    m = body.motion
+    t, o, lin = m.times, m.pivot, m.linear
+    n = len(t) if last is None else last + 1
+
+    rate = np.diff(lin, axis=0) / np.diff(t)[:, None, None]  # L' and o' per probe interval
+    vel = np.diff(o, axis=0) / np.diff(t)[:, None]
+
+    def fits(k: int, j: int) -> bool:
+        f = ((t[k:j + 1] - t[k]) / (t[j] - t[k]))[:, None]
+        dev = np.linalg.norm(o[k:j + 1] - (o[k] + f * (o[j] - o[k])), axis=1)
+        turn = np.linalg.norm(lin[k:j + 1] - (lin[k] + f[:, :, None] * (lin[j] - lin[k])), ord=2, axis=(1, 2))
+        if not (dev + radius * turn <= tol[k:j + 1]).all():
+            return False
+        dv = np.linalg.norm(vel[k:j] - (o[j] - o[k]) / (t[j] - t[k]), axis=1)
+        dw = np.linalg.norm(rate[k:j] - (lin[j] - lin[k]) / (t[j] - t[k]), ord=2, axis=(1, 2))
+        return bool((dv + radius * dw <= VELOCITY_TOLERANCE).all())
+
+    out, k = [first], first
+    while k < n - 1:
+        lo, step = k + 1, 1  # one probe interval always fits: the probes' own chord
+        while lo + step <= n - 1 and fits(k, lo + step):
+            lo += step
+            step *= 2
+        hi = min(lo + step, n)
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if fits(k, mid):
+                lo = mid
+            else:
+                hi = mid
+        out.append(lo)
+        k = lo
+    return t[out]
+
+
+def worldline_cuts(body: Body, tol: np.ndarray, radius: float, chunks: np.ndarray, keep=None) -> tuple:
+    """``animation_cuts``' entry of a worldline body: (WORLDLINES, run, ...), a run the
+    sample times (``worldline_times``, chords within half the tolerance ``tol``: the
+    tetrahedra take the other half) over a maximal run of consecutive chunks (probe
+    indices ``chunks``, ``animation.motion_chunks``) that ``keep`` says the frames reach
+    (None: all, one run). No run: the frames see only the held ends, if anything. Each
+    chunk is sampled from its own start, so its samples are the same whichever chunks are
+    kept (the tetrahedra's slices still follow the visibility windows' ends)."""
+    keep = np.ones(len(chunks) - 1, dtype=bool) if keep is None else np.asarray(keep, dtype=bool)
+    half = 0.5 * np.asarray(tol, dtype=np.float64)
+    runs, q = [], 0
+    while q < len(keep):
+        if not keep[q]:
+            q += 1
+            continue
+        times = []
+        while q < len(keep) and keep[q]:  # each chunk sampled from its own start
+            part = worldline_times(body, half, radius, int(chunks[q]), int(chunks[q + 1]))
+            times.extend(float(x) for x in part[1 if times else 0:])
+            q += 1
+        runs.append(tuple(times))
+    return (WORLDLINES, *runs)
+
+
+def is_worldlines(cuts) -> bool:
+    """Whether an animated body's cuts are ``worldline_cuts``'."""
+    return len(cuts) > 0 and cuts[0] == WORLDLINES
+
+
+def worldline_count(cuts) -> int:
+    """How many sample intervals ``worldline_cuts``' runs hold."""
+    return sum(len(run) - 1 for run in cuts[1:])
+
+
+def _unshared(surface):
+    """``surface`` with its corners copied per triangle when it is flat (no normals),
+    numbered in (triangle, point) order so that every triangle keeps its corners' order."""
+    if surface.normals is not None:
+        return surface
+    tris = np.asarray(surface.triangles, dtype=np.int64).reshape(-1, 3)
+    key = np.arange(len(tris))[:, None] * len(surface.points) + tris
+    used, index = np.unique(key.reshape(-1), return_inverse=True)
+    points = np.asarray(surface.points, dtype=np.float64)[used % len(surface.points)]
+    return dataclasses.replace(surface, points=points, triangles=index.reshape(-1, 3))
+
+
+def worldline_bodies(body: Body, cuts: tuple, held) -> list[Body]:
+    """``body`` as deforming bodies, one per run of ``cuts`` (``worldline_cuts``), each
+    living over its run (a run at the first or last probe also over the held motion
+    before or after it), its surfaces carrying per-vertex samples at the run's times; and
+    the held ends no run covers, ``held()`` -> (before, after) (``animation``'s pieces of
+    uniform motion, meeting the runs' first and last poses). The held velocity
+    (``spacetime:fourVelocity`` of a decoupled body; zero for a coupled one) stays the
+    body's, taken out of the samples, so that outside the probes the points move with it."""
+    m = body.motion
+    v = np.asarray(m.hold_velocity, dtype=np.float64)
+    flat = [_unshared(s) for s in body.surfaces]
+    out = []
+    runs = [np.asarray(run, dtype=np.float64) for run in cuts[1:]]
+    for times in runs:
+        pivot, linear = m.at(times)
+        drift = v * (times - body.reference_time)[:, None]  # deform.points_at adds it back
+        surfaces = []
+        for s in flat:
+            r = np.asarray(s.points, dtype=np.float64) - m.static_pivot
+            pts = pivot[:, None, :] - drift[:, None, :] + np.einsum("pj,kjl->kpl", r, linear)
+            surfaces.append(dataclasses.replace(s, samples=PointSamples(times=times, points=pts)))
+        lo = body.lifetime[0] if times[0] <= m.times[0] else max(body.lifetime[0], float(times[0]))
+        hi = body.lifetime[1] if times[-1] >= m.times[-1] else min(body.lifetime[1], float(times[-1]))
+        if lo < hi:
+            out.append(dataclasses.replace(body, surfaces=tuple(surfaces), motion=None, velocity=v.copy(), spin=None,
+                                           piece_linear=None, seam=0.0, lifetime=(lo, hi)))
+    before, after = held()
+    if not runs or runs[0][0] > m.times[0]:
+        out.insert(0, before)
+    if not runs or runs[-1][-1] < m.times[-1]:
+        out.append(after)
+    return [b for b in out if b is not None]
