@@ -59,3 +59,22 @@ def test_lab_samples_follow_the_boosted_worldlines():
                     worst = max(worst, float(np.linalg.norm(at[j] - _brute(rest, j, float(t), o, v, t_ref))))
         # the bisection's 200 halvings of 2e3 and float64 rounding add ~1e-13: the bound is the tolerance
         assert worst <= REST_LAB_TOLERANCE * size * (1 + 1e-9), (trial, worst, REST_LAB_TOLERANCE * size)
+
+
+def test_lab_samples_of_many_points_follow_each_point():
+    """Past one block of points (the evaluation runs 64 points at a time, laid end to end on
+    one time axis): 150 points, brute force at the blocks' first and last points and a few
+    more, at random lab times inside and outside the samples. Same bound as above."""
+    rng = np.random.default_rng(11)
+    rest = _random_rest(rng, 10, 150)
+    v = np.array([0.5, -0.3, 0.4])
+    o, t_ref = np.array([0.3, -0.2, 0.1]), 0.7
+    size = float(np.max(rest.points.reshape(-1, 3).max(axis=0) - rest.points.reshape(-1, 3).min(axis=0)))
+    lab = lab_samples([rest], o, v, t_ref, size)[0]
+    span = lab.times[[0, -1]]
+    worst = 0.0
+    for t in rng.uniform(span[0] - 1.0, span[1] + 1.0, 25):
+        at = lab.at(float(t))
+        for j in (0, 1, 62, 63, 64, 65, 100, 127, 128, 149):
+            worst = max(worst, float(np.linalg.norm(at[j] - _brute(rest, j, float(t), o, v, t_ref))))
+    assert worst <= REST_LAB_TOLERANCE * size * (1 + 1e-9), (worst, REST_LAB_TOLERANCE * size)

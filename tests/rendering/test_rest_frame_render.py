@@ -4,10 +4,11 @@ addition 0.7.0; issue 18's rolling wheel at 0.8c).
 Laws:
 - every hit event of the wheel spinning in S' (rim speed 0.8c, S' at 0.8c), carried back to
   S' by the inverse boost and un-rotated by the closed-form rotation at its rest time, lies
-  on the rest wheel (the N-gon prism) within issue 18's 2e-3;
+  on the rest wheel (the N-gon prism) within issue 18's 2e-3, and its properTime is that
+  event's rest time t' (addition 0.8.0);
 - a "rest" body whose rest-frame motion is no motion (static, or xformOps time-sampled to
   stand still) renders as the same body with plain spacetime:fourVelocity: masks equal
-  off the silhouette, eventTime within 1e-3.
+  off the silhouette, eventTime and properTime within 1e-3.
 """
 import numpy as np
 import pytest
@@ -39,6 +40,12 @@ def test_wheel_hits_lie_on_the_rotated_rest_wheel(tmp_path):
         assert -12.0 < t_rest.min() and t_rest.max() < 12.0  # inside the rest samples: it spins there
         error = prism_distance(r, caps=False)
         assert error.max() <= 2e-3, (frame, float(error.max()), float(np.percentile(error, 99)))
+        # properTime (0.8.0) is the hit event's own t' in S' (the inverse boost above, float64):
+        # on the axle (t - t_ref) / gamma. Both from the same event, float32 in the kernel
+        # (values ~10: ~1e-6) and the depth's rounding in hit_events (~1e-5 x gamma v): 1e-4.
+        # Measured 7.3e-7 at frame 9; with 0.7.0's t - t_ref (a mutation) 1.95 off.
+        tau = image.proper_time[image.object_id > 0].astype(np.float64)
+        assert np.abs(tau - t_rest).max() <= 1e-4, (frame, float(np.abs(tau - t_rest).max()))
 
 
 @pytest.mark.parametrize("spin", ["static", "still samples"])
@@ -64,4 +71,6 @@ def test_rest_body_without_motion_is_the_plain_four_velocity_body(tmp_path, spin
         both = ma & mu
         seen += int(both.sum())
         assert np.abs(a.event_time[both] - u.event_time[both]).max() <= 1e-3
+        # the coupled body's proper time (§2) is the rest body's t' (0.8.0): within float32 of ~10
+        assert np.abs(a.proper_time[both] - u.proper_time[both]).max() <= 1e-3
     assert seen > 300

@@ -183,6 +183,9 @@ class Body:
     seam: for such a piece, the largest distance between its surfaces and its neighbouring
         pieces' where they overlap in time (they model one surface): shadow rays leaving
         the piece ignore its object that near (``kernels/shade.py``). Else 0.
+    rest_frame: its animation is its motion in its own rest frame S' (``spacetime:animationFrame
+        = "rest"``, docs/spec.md §2.1): its points are lab positions (``decoupled`` for
+        tracing), its proper time is t' of the event in S', gamma(v) ((t - t_ref) - v.(x - o)).
     """
 
     prim_path: str
@@ -196,6 +199,7 @@ class Body:
     spin: object = None
     piece_linear: object = None
     seam: float = 0.0
+    rest_frame: bool = False
 
     @property
     def speed(self) -> float:

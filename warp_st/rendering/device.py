@@ -56,9 +56,13 @@ class ShadingTables:
         self.body_velocity = wp.array(
             np.array([b.velocity for b in bodies], dtype=np_scalar).reshape(-1, 3), dtype=k.vec3, device=_DEVICE
         )
-        self.body_gamma = wp.array(np.array([b.gamma for b in bodies], dtype=np_scalar), dtype=k.scalar, device=_DEVICE)
+        # A rest-frame body (§2.1) is traced decoupled, but its proper time is the event's t' in S'
+        # (the coupled formula); its point velocities carry gamma 1, so its Doppler is unchanged.
+        gammas = [1.0 / np.sqrt(1.0 - b.speed**2) if b.rest_frame else b.gamma for b in bodies]
+        self.body_gamma = wp.array(np.array(gammas, dtype=np_scalar), dtype=k.scalar, device=_DEVICE)
         self.body_decoupled = wp.array(
-            np.array([1 if b.decoupled else 0 for b in bodies], dtype=np.int32), dtype=wp.int32, device=_DEVICE
+            np.array([1 if b.decoupled and not b.rest_frame else 0 for b in bodies], dtype=np.int32),
+            dtype=wp.int32, device=_DEVICE
         )
         spins = [np.zeros((3, 3)) if b.spin is None else np.asarray(b.spin, dtype=np.float64) for b in bodies]
         self.body_spins = wp.array(np.array([b.spin is not None for b in bodies], dtype=np.int32), dtype=wp.int32,

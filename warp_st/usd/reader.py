@@ -109,7 +109,7 @@ class _BodyBuilder:
 
     def build(self) -> Body:
         return Body(self.prim_path, tuple(self.surfaces), self.origin, self.velocity,
-                    self.reference_time, self.lifetime, self.decoupled, self.motion)
+                    self.reference_time, self.lifetime, self.decoupled, self.motion, rest_frame=self.rest_frame)
 
 
 def _translation(matrix: Gf.Matrix4d) -> np.ndarray:

@@ -106,8 +106,10 @@ def rest_frame_surfaces(where: A.Where, stage, body, notes) -> list:
     for i, level in enumerate(levels):
         for _ in range(level):
             surfaces[i], rest[i] = midpoint_subdivide(surfaces[i], rest[i])
-    if any(levels):  # the subdivided surfaces at the lab times their first vertices needed
-        labs = lab_samples(rest, body.origin, body.velocity, body.reference_time, size, grid=labs[0].times)
+    cut = [i for i, level in enumerate(levels) if level]  # at the lab times their first vertices needed
+    for i, lab in zip(cut, lab_samples([rest[i] for i in cut], body.origin, body.velocity, body.reference_time,
+                                       size, grid=labs[0].times)):
+        labs[i] = lab
     left = max((b / 4.0 ** level for b, level in zip(bends, levels)), default=0.0)
     notes.info(body.prim_path, ANIMATION_FRAME, f"animated in its rest frame: {len(labs[0].times)} lab samples; "
                                                 f"surfaces cut {max(levels, default=0)} time(s) for the bend of "
