@@ -64,13 +64,15 @@ def test_static_rigid_database_stays_within_its_bytes_per_triangle():
     per triangle: normal (3 x float32) 12, size (float32) 4, smooth, body and material
     (int32) 12, and the vertex normals (3 x float32 per vertex, 0.5 vertices per triangle
     of a closed sphere) 6: 34; the one shape's bottom level, shared by 16 bodies
-    (accel/blas.py: leaf-order vertices 36 and faces 4, wide nodes ~67, indices 12 and rest
-    points 6 per triangle of the shape) over 16, ~7.8; the per-body and per-segment rows
-    (~1 KB per body over 6,240 triangles) ~0.2. Measured 41.6 with wp.Mesh as the bottom
-    level (7.4). The bound, 46, leaves 4 B for those rows and for the pole's vertices
-    (a sphere has slightly more than half a vertex per triangle), and fails for any
-    table of 8 bytes per triangle more: a float64 copy of the normals or sizes kept
-    beside the float32 ones, or vertex indices per body."""
+    (accel/blas.py: wide nodes ~19, and the shape's own vertex indices 12 and rest points
+    6, which the traversal reads: one vertex store per shape) over 16, ~2.3; the per-body
+    and per-segment rows (~1 KB per body over 6,240 triangles) ~0.2. Measured 36.6 (43.2
+    with a leaf-order copy of the vertices and faces beside the shape's, 0.7.0; 41.6 with
+    wp.Mesh). The bound, 38, leaves 1.4 B for those rows and for the pole's vertices (a
+    sphere has slightly more than half a vertex per triangle), and fails for any table of
+    8 bytes per triangle more (a float64 copy of the normals or sizes kept beside the
+    float32 ones, or vertex indices per body) and for the leaf-order vertex copy back
+    (36 bytes per shape triangle, 2.25 here)."""
     scene = instanced_spheres(80)
     r = Renderer(scene, frames=[0.0], width=16, height=16)
     r.render(0.0)
@@ -78,13 +80,13 @@ def test_static_rigid_database_stays_within_its_bytes_per_triangle():
     assert tris == 99_840 and r.database.bottom.count == 1
     tables = rigid_tables(r.database)
     per_triangle = total_bytes(tables) / tris
-    assert per_triangle <= 46.0, [(t.name, t.dtype, round(t.nbytes / tris, 1)) for t in tables[:8]]
+    assert per_triangle <= 38.0, [(t.name, t.dtype, round(t.nbytes / tris, 1)) for t in tables[:8]]
     # The count sees the bottom level and every upload: a buffer left out would make the
     # bound meaningless.
     names = {t.name for t in tables}
-    assert {"host bottom.tri_vert", "host bottom.node_lo", "host shapes.tri_normal"} <= names
+    assert {"host shapes.shape_triangles", "host bottom.node_lo", "host shapes.tri_normal"} <= names
     bottom = sum(t.nbytes for t in tables if t.name.startswith("host bottom."))
-    assert bottom >= (tris // 16) * (36 + 4)  # at least the one shape's vertices and faces
+    assert bottom >= (tris // 16) * 8  # at least the one shape's nodes (~19 bytes per triangle)
 
 
 def test_float64_upload_of_float32_shapes_has_float64_tables():

@@ -15,10 +15,18 @@ All shapes share one set of arrays (``kernels/blas.py`` traverses them):
   query (finite t_max, from inside the shape's box) never reaches, and its link -1;
 - ``node_link`` (W, 4) int32: ``first << LINK_SHIFT | count``, a leaf's range of
   triangle slots or (count 0) a wide node, global over the shapes;
-- ``tri_vert`` (3 T,) vec3: each triangle's vertices in the shape's index order, stored
-  in leaf order (a leaf's triangles are contiguous); ``tri_face`` (T,) int32 the
-  triangle's index in its shape (what ``wp.mesh_query_ray`` calls the face);
-- ``body_root`` (B,) int32: the root wide node of each body's shape (-1: no triangles).
+- ``vidx`` (T, 3) int32: every shape's triangles (vertex indices in the shape), shape
+  after shape, each shape's in its tree's leaf order (a leaf's triangles are
+  contiguous): slot i is row i. It is the shapes' own table too: ``bottom_levels``
+  renumbers each shape's triangles into this order once (``spacetime.rigid.renumbered``),
+  so the shading reads the same rows (``shape_vidx``) and a hit's slot minus its shape's
+  first row is the triangle's index in its shape (one vertex store per shape, issue 17);
+- ``points`` (P, 3) float32: every shape's rest points, shape after shape (the shapes'
+  ``shape_rest`` are views of it); ``body_vert`` (B,) int32: where each body's shape's
+  points start in it;
+- ``body_root`` (B,) int32: the root wide node of each body's shape (-1: no triangles,
+  or a shape only exact quadrics use: they are traced as quadrics, ``trace_rigid.py``,
+  and keep their triangles' order).
 """
 from __future__ import annotations
 
@@ -29,9 +37,9 @@ import numpy as np
 from warp_st.accel.bvh import build_bvh
 from warp_st.accel.bvh_wide import collapse, wide_boxes
 from warp_st.kernels.layout import LINK_SHIFT, WIDTH
-from warp_st.spacetime.rigid import RigidShapes
+from warp_st.spacetime.rigid import RigidShapes, renumbered
 
-__all__ = ["BottomLevels", "shape_tree"]
+__all__ = ["BottomLevels", "bottom_levels", "leaf_order", "shape_tree"]
 
 #: An empty slot's box: a point no query reaches (its t range is finite and starts in
 #: the shape's box, which float32 rest coordinates keep far below this).
@@ -68,30 +76,45 @@ def shape_tree(points: np.ndarray, triangles: np.ndarray):
 
 
 class BottomLevels:
-    """The bottom levels of ``shapes`` (see the module docstring), NumPy arrays.
+    """The bottom levels of ``shapes`` (see the module docstring), NumPy arrays, built
+    over the shapes' triangles in their given order.
 
-    ``build_seconds``: the build's wall time; ``nbytes``: what the arrays hold;
-    ``count``: the number of shapes.
+    ``orders``: each shape's leaf order (its triangles' indices in the order of
+    ``vidx``; None for a shape without a tree) until ``bottom_levels`` has renumbered the
+    shapes and drops them; ``build_seconds``: the build's wall time; ``nbytes``: what
+    the arrays hold; ``count``: the number of shapes.
     """
 
     def __init__(self, shapes: RigidShapes):
         t0 = time.perf_counter()
-        los, his, links, verts, faces, roots = [], [], [], [], [], []
-        node_base = tri_base = 0
-        for rest, tris in zip(shapes.shape_rest, shapes.shape_triangles):
-            tris = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
-            points = np.asarray(rest, dtype=np.float64).astype(np.float32)
-            if len(tris) == 0:
+        body_shape = np.asarray(shapes.body_shape)
+        quadric = np.asarray(getattr(shapes, "body_quadric", np.zeros(len(body_shape), np.int32)))
+        n_shapes = len(shapes.shape_rest)
+        # A shape only exact quadrics use is never queried: no tree, its order kept.
+        traced = np.zeros(n_shapes + 1, bool)
+        traced[body_shape[(body_shape >= 0) & (quadric == 0)]] = True
+        los, his, links, vidx, points, roots, firsts, self.orders = [], [], [], [], [], [], [], []
+        node_base = tri_base = vert_base = 0
+        for s, (rest, tris) in enumerate(zip(shapes.shape_rest, shapes.shape_triangles)):
+            tris = np.asarray(tris, dtype=np.int32).reshape(-1, 3)
+            pts = np.asarray(rest, dtype=np.float64).astype(np.float32)
+            firsts.append(vert_base)
+            points.append(pts)
+            vert_base += len(pts)
+            if len(tris) == 0 or not traced[s]:
                 roots.append(-1)
+                self.orders.append(None)
+                vidx.append(tris)
+                tri_base += len(tris)
                 continue
-            lo, hi, link, order = shape_tree(points, tris)
+            lo, hi, link, order = shape_tree(pts, tris)
             is_leaf = (link >= 0) & ((link & ((1 << LINK_SHIFT) - 1)) > 0)
             base = np.where(is_leaf, tri_base, node_base).astype(np.int64) << LINK_SHIFT
             links.append(np.where(link >= 0, link.astype(np.int64) + base, -1))
             los.append(lo)
             his.append(hi)
-            verts.append(points[tris[order]].reshape(-1, 3))
-            faces.append(order.astype(np.int32))
+            vidx.append(tris[order])
+            self.orders.append(order)
             roots.append(node_base)
             node_base += len(lo)
             tri_base += len(tris)
@@ -101,10 +124,28 @@ class BottomLevels:
         self.node_lo = np.concatenate(los) if los else np.full((1, 3 * WIDTH), FAR, np.float32)
         self.node_hi = np.concatenate(his) if his else np.full((1, 3 * WIDTH), FAR, np.float32)
         self.node_link = np.concatenate(links).astype(np.int32) if links else np.full((1, WIDTH), -1, np.int32)
-        self.tri_vert = np.concatenate(verts) if verts else np.zeros((3, 3), np.float32)
-        self.tri_face = np.concatenate(faces) if faces else np.zeros(1, np.int32)
+        self.vidx = np.concatenate(vidx) if vidx else np.zeros((0, 3), np.int32)
+        self.points = np.concatenate(points) if points else np.zeros((0, 3), np.float32)
         root_of_shape = np.array(roots + [-1], dtype=np.int32)
-        self.body_root = root_of_shape[shapes.body_shape]  # -1 (no shape) picks the trailing -1
+        first_of_shape = np.array(firsts + [0], dtype=np.int32)
+        self.body_root = root_of_shape[body_shape]  # -1 (no shape) picks the trailing -1
+        self.body_vert = first_of_shape[body_shape]
         self.build_seconds = time.perf_counter() - t0
-        self.nbytes = int(self.node_lo.nbytes + self.node_hi.nbytes + self.node_link.nbytes + self.tri_vert.nbytes
-                          + self.tri_face.nbytes)
+        self.nbytes = int(self.node_lo.nbytes + self.node_hi.nbytes + self.node_link.nbytes + self.vidx.nbytes
+                          + self.points.nbytes)
+
+
+def leaf_order(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """The leaf order ``BottomLevels`` gives one shape's triangles (the build is
+    deterministic: the same points and triangles give the same tree)."""
+    return shape_tree(np.asarray(points, np.float32), np.asarray(triangles, np.int32).reshape(-1, 3))[3]
+
+
+def bottom_levels(shapes: RigidShapes) -> tuple[RigidShapes, BottomLevels]:
+    """The bottom levels of ``shapes`` and the shapes renumbered into their leaf order
+    (``spacetime.rigid.renumbered``: every per-triangle table follows, so the images are
+    the same; the shapes' triangles and points are the bottom levels' arrays)."""
+    bottom = BottomLevels(shapes)
+    ordered = renumbered(shapes, bottom.orders, bottom.vidx, bottom.points, leaf_order)
+    bottom.orders = None
+    return ordered, bottom

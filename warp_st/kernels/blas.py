@@ -3,12 +3,15 @@
 The tree is ``accel/blas.py``'s (every shape's nodes and triangles in shared arrays,
 ``Geometry.blas_*``). ``make_blas_query(Geometry)`` gives
 
-    blas_query(g, root, p, d, t_max, any_hit) -> (hit, t, u, v, face)
+    blas_query(g, root, vert, tri0, p, d, t_max, any_hit) -> (hit, t, u, v, face)
 
 the closest (with ``any_hit``, any) crossing of the float32 ray p + t d, t in
 [0, t_max], with the triangles under wide node ``root``: t in units of d, (u, v) the
 barycentric weights of the triangle's first and second vertices, ``face`` its index in
-its shape — what ``wp.mesh_query_ray`` returns for the same ray and triangles.
+its shape — what ``wp.mesh_query_ray`` returns for the same ray and triangles. A leaf's
+triangle slot i is row i of the shapes' own vertex indices (``g.shape_vidx``, in leaf
+order: accel/blas.py), its points ``g.blas_points[vert + index]`` (``vert``: where the
+shape's points start), and its face i - ``tri0`` (``tri0``: the shape's first row).
 
 The triangle test is Woop, Benthin and Wald's watertight one (JCGT 2(1), 2013): the
 ray's largest axis becomes z, the vertices are sheared so that the ray is the z axis,
@@ -40,7 +43,7 @@ def make_blas_query(Geometry):
     INF = float("inf")
 
     @wp.func(inline=True)
-    def blas_query(g: Geometry, root: int, p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int):
+    def blas_query(g: Geometry, root: int, vert: int, tri0: int, p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int):
         # The shear of Woop's test, once per ray: z along the largest |d| (the first
         # of equals), x and y swapped when d_z < 0 to keep the winding.
         kz = int(0)
@@ -78,9 +81,10 @@ def make_blas_query(Geometry):
             next_link = int(-1)
             if count > 0:
                 for i in range(first, first + count):
-                    a = g.blas_vert[3 * i] - p
-                    b = g.blas_vert[3 * i + 1] - p
-                    c = g.blas_vert[3 * i + 2] - p
+                    tri = g.shape_vidx[i]
+                    a = g.blas_points[vert + tri[0]] - p
+                    b = g.blas_points[vert + tri[1]] - p
+                    c = g.blas_points[vert + tri[2]] - p
                     ax = a[kx] - sx * a[kz]
                     ay = a[ky] - sy * a[kz]
                     bx = b[kx] - sx * b[kz]
@@ -139,9 +143,6 @@ def make_blas_query(Geometry):
                 if st_s[sp] <= best:
                     next_link = st_node[sp]
             cur = next_link
-        face = int(-1)
-        if hit != 0:
-            face = g.blas_face[best_face]
-        return hit, best, best_u, best_v, face
+        return hit, best, best_u, best_v, best_face - tri0
 
     return blas_query

@@ -114,12 +114,13 @@ def make_trace_rigid(scalar):
         root_lo: vec4
         root_hi: vec4
         # The bottom levels (accel/blas.py, kernels/blas.py): every shape's 4-wide 3D
-        # BVH, its triangles' vertices in leaf order and their faces in the shape.
+        # BVH over its triangles (shape_vidx, in leaf order), the shapes' rest points and
+        # where each body's shape's points start in them.
         blas_lo: wp.array(dtype=vec12f)
         blas_hi: wp.array(dtype=vec12f)
         blas_link: wp.array(dtype=wp.vec4i)
-        blas_vert: wp.array(dtype=wp.vec3)
-        blas_face: wp.array(dtype=wp.int32)
+        blas_points: wp.array(dtype=wp.vec3)
+        body_blas_vert: wp.array(dtype=wp.int32)
 
     blas_query = make_blas_query(Geometry)
 
@@ -279,8 +280,8 @@ def make_trace_rigid(scalar):
                     attempt = int(0)  # a while loop: a constant range would be unrolled
                     while attempt < 4 and e0 < e1:
                         attempt += 1
-                        found, qt, qu, qv, face = blas_query(g, root, at(pm, dm, e0), direction, wp.float32(e1 - e0),
-                                                             shadow)
+                        found, qt, qu, qv, face = blas_query(g, root, g.body_blas_vert[body], g.body_shape_tri[body],
+                                                             at(pm, dm, e0), direction, wp.float32(e1 - e0), shadow)
                         if found == 0:
                             e1 = wp.float64(-1.0)
                         elif shadow != 0:
