@@ -32,7 +32,6 @@ from warp_st.kernels.blas import make_blas_query
 from warp_st.rendering.warp_init import init_warp
 
 ROOT = Path(__file__).resolve().parents[2]
-VEC12 = wp.types.vector(12, wp.float32)
 #: Conditioned t error bound (see the module docstring and ``_t_error``): ~80 ulps.
 T_TOL = 1.0e-5
 #: A float64 hit this close to an edge of its triangle (relative to the coordinates,
@@ -85,7 +84,8 @@ class Shape:
         self.triangles = triangles[self.order]
         assert np.array_equal(self.bottom.vidx, self.triangles)
         self.g = Blas()
-        for name, attr, dtype in (("blas_lo", "node_lo", VEC12), ("blas_hi", "node_hi", VEC12),
+        for name, attr, dtype in (("blas_q", "node_q", wp.types.vector(24, wp.uint8)),
+                                  ("blas_frame", "node_frame", wp.types.vector(6, wp.float32)),
                                   ("blas_link", "node_link", wp.vec4i), ("shape_vidx", "vidx", wp.vec3i),
                                   ("blas_points", "points", wp.vec3)):
             setattr(self.g, name, wp.array(getattr(self.bottom, attr), dtype=dtype, device="cpu"))

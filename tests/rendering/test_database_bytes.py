@@ -84,9 +84,32 @@ def test_static_rigid_database_stays_within_its_bytes_per_triangle():
     # The count sees the bottom level and every upload: a buffer left out would make the
     # bound meaningless.
     names = {t.name for t in tables}
-    assert {"host shapes.shape_triangles", "host bottom.node_lo", "host shapes.tri_normal"} <= names
+    assert {"host shapes.shape_triangles", "host bottom.node_q", "host shapes.tri_normal"} <= names
     bottom = sum(t.nbytes for t in tables if t.name.startswith("host bottom."))
     assert bottom >= (tris // 16) * 8  # at least the one shape's nodes (~19 bytes per triangle)
+
+
+def test_distinct_shapes_stay_within_64_bytes_per_triangle():
+    """16 spheres of 6,240 triangles, each of its own radius (16 shapes, no instancing:
+    99,840 triangles). Issue 17's bound, 64 bytes per triangle, is the layout's: the
+    shading tables 34 (see above), the shape's vertex indices 12 and rest points 6 (which
+    the shading and the traversal both read: one vertex store), and the wide nodes with
+    their child boxes a byte per coordinate (accel/blas.py: 64 bytes a node, ~0.17 nodes
+    per triangle of these shapes, 11.1). Measured 63.4; with the boxes as float32 (112
+    bytes a node, 0.7.0) 71.7, with a leaf-order copy of the vertices as well 107.7."""
+    scene = instanced_spheres(80)
+    bodies = []
+    for i, b in enumerate(scene.bodies):
+        surf = b.surfaces[0]
+        pts = (surf.points - b.origin) * (1.0 + 2.0 ** -10 * (i + 1)) + b.origin  # another radius: another shape
+        bodies.append(dataclasses.replace(b, surfaces=(dataclasses.replace(surf, points=pts),)))
+    r = Renderer(dataclasses.replace(scene, bodies=tuple(bodies)), frames=[0.0], width=16, height=16)
+    r.render(0.0)
+    tris = r.database.shapes.triangle_count
+    assert tris == 99_840 and r.database.bottom.count == 16
+    tables = rigid_tables(r.database)
+    per_triangle = total_bytes(tables) / tris
+    assert per_triangle <= 64.0, [(t.name, t.dtype, round(t.nbytes / tris, 1)) for t in tables[:12]]
 
 
 def test_float64_upload_of_float32_shapes_has_float64_tables():

@@ -10,9 +10,11 @@ times L to within 0.1 %, and the SAH orders splits as a 3D one does.
 
 All shapes share one set of arrays (``kernels/blas.py`` traverses them):
 
-- ``node_lo`` / ``node_hi`` (W, 12) float32: a wide node's four child boxes,
-  axis-major (x0..x3, y0..y3, z0..z3); an empty slot's box is a point at 1e30, which a
-  query (finite t_max, from inside the shape's box) never reaches, and its link -1;
+- ``node_q`` (W, 24) uint8 and ``node_frame`` (W, 6) float32: a wide node's four child
+  boxes, axis-major (x0..x3, y0..y3, z0..z3 of the lower corners, then of the upper),
+  quantised to a byte per coordinate in the node's frame (origin and step per axis:
+  ``quantised``; 64 bytes a node with the links, 112 as float32 boxes); an empty slot's
+  link is -1;
 - ``node_link`` (W, 4) int32: ``first << LINK_SHIFT | count``, a leaf's range of
   triangle slots or (count 0) a wide node, global over the shapes;
 - ``vidx`` (T, 3) int32: every shape's triangles (vertex indices in the shape), shape
@@ -41,14 +43,10 @@ from warp_st.spacetime.rigid import RigidShapes, renumbered
 
 __all__ = ["BottomLevels", "bottom_levels", "leaf_order", "shape_tree"]
 
-#: An empty slot's box: a point no query reaches (its t range is finite and starts in
-#: the shape's box, which float32 rest coordinates keep far below this).
-FAR = 1.0e30
-
-
 def shape_tree(points: np.ndarray, triangles: np.ndarray):
-    """The 4-wide tree of one shape: (lo (W, 12), hi (W, 12), link (W, 4) local,
-    order (T,) the triangles in leaf order). ``points`` float32 (P, 3)."""
+    """The 4-wide tree of one shape: (q (W, 24) uint8 and frame (W, 6) float32, the
+    quantised child boxes (``quantised``), link (W, 4) local, order (T,) the triangles in
+    leaf order). ``points`` float32 (P, 3)."""
     a, b, c = (points[triangles[:, k]] for k in range(3))  # float32: the boxes are exact
     # Pairwise, not a reduction over an axis of three (ten times slower in NumPy).
     lo3 = np.minimum(np.minimum(a, b), c).astype(np.float64)
@@ -69,10 +67,41 @@ def shape_tree(points: np.ndarray, triangles: np.ndarray):
     # every ray that meets the triangles.
     lo = np.nextafter(lo16[:, WIDTH:].astype(np.float32), np.float32(-np.inf))
     hi = np.nextafter(hi16[:, WIDTH:].astype(np.float32), np.float32(np.inf))
-    empty = np.tile(wide.slot_node < 0, (1, 3))  # slot k is lanes k, 4 + k, 8 + k
-    lo[empty] = FAR
-    hi[empty] = FAR
-    return lo, hi, wide.link, bvh.order
+    q, frame = quantised(lo, hi, wide.slot_node < 0)
+    return q, frame, wide.link, bvh.order
+
+
+#: Quantisation steps of a child box coordinate within its wide node (one byte).
+STEPS = 255
+
+
+def quantised(lo: np.ndarray, hi: np.ndarray, empty: np.ndarray):
+    """Wide nodes' child boxes ``lo`` / ``hi`` (W, 12) float32, axis-major, as one byte
+    per coordinate in the node's frame: (q (W, 24) uint8, the children's lower corners
+    then upper ones; frame (W, 6) float32, the origin and step per axis). A child's box
+    is origin + q step (``kernels/blas.py`` decodes it in float32) and contains the given
+    one: lower corners round down, upper ones up, past a margin of 4 float32 ulps of the
+    node's coordinates (the decode's rounding is below 1.5 of them). ``empty`` (W, 4):
+    slots without a child (their q is 0; the traversal tests their link, -1)."""
+    w = len(lo)
+    lo3 = lo.astype(np.float64).reshape(w, 3, WIDTH)
+    hi3 = hi.astype(np.float64).reshape(w, 3, WIDTH)
+    full = np.repeat(empty[:, None, :], 3, axis=1)
+    low = np.where(full, np.inf, lo3).min(axis=2)  # (W, 3)
+    high = np.where(full, -np.inf, hi3).max(axis=2)
+    margin = 4.0 * np.spacing(np.maximum(np.abs(low), np.abs(high)).astype(np.float32)).astype(np.float64) + 1.0e-30
+    origin = (low - margin).astype(np.float32)
+    origin = np.where(origin > low - margin, np.nextafter(origin, np.float32(-np.inf)), origin)
+    step64 = (high + margin - origin) / STEPS
+    step = step64.astype(np.float32)
+    step = np.where(step < step64, np.nextafter(step, np.float32(np.inf)), step)
+    o, st = origin.astype(np.float64)[:, :, None], step.astype(np.float64)[:, :, None]
+    q_lo = np.clip(np.floor((lo3 - margin[:, :, None] - o) / st), 0, STEPS)
+    q_hi = np.clip(np.ceil((hi3 + margin[:, :, None] - o) / st), 0, STEPS)
+    q_lo[full] = 0
+    q_hi[full] = 0
+    q = np.concatenate([q_lo.reshape(w, 12), q_hi.reshape(w, 12)], axis=1).astype(np.uint8)
+    return q, np.concatenate([origin, step], axis=1)
 
 
 class BottomLevels:
@@ -93,7 +122,7 @@ class BottomLevels:
         # A shape only exact quadrics use is never queried: no tree, its order kept.
         traced = np.zeros(n_shapes + 1, bool)
         traced[body_shape[(body_shape >= 0) & (quadric == 0)]] = True
-        los, his, links, vidx, points, roots, firsts, self.orders = [], [], [], [], [], [], [], []
+        qs, frames, links, vidx, points, roots, firsts, self.orders = [], [], [], [], [], [], [], []
         node_base = tri_base = vert_base = 0
         for s, (rest, tris) in enumerate(zip(shapes.shape_rest, shapes.shape_triangles)):
             tris = np.asarray(tris, dtype=np.int32).reshape(-1, 3)
@@ -107,22 +136,22 @@ class BottomLevels:
                 vidx.append(tris)
                 tri_base += len(tris)
                 continue
-            lo, hi, link, order = shape_tree(pts, tris)
+            q, frame, link, order = shape_tree(pts, tris)
             is_leaf = (link >= 0) & ((link & ((1 << LINK_SHIFT) - 1)) > 0)
             base = np.where(is_leaf, tri_base, node_base).astype(np.int64) << LINK_SHIFT
             links.append(np.where(link >= 0, link.astype(np.int64) + base, -1))
-            los.append(lo)
-            his.append(hi)
+            qs.append(q)
+            frames.append(frame)
             vidx.append(tris[order])
             self.orders.append(order)
             roots.append(node_base)
-            node_base += len(lo)
+            node_base += len(q)
             tri_base += len(tris)
         if (node_base | tri_base) >= 2 ** (31 - LINK_SHIFT):
             raise ValueError("bottom levels too large for packed node links")
         self.count = len(roots)
-        self.node_lo = np.concatenate(los) if los else np.full((1, 3 * WIDTH), FAR, np.float32)
-        self.node_hi = np.concatenate(his) if his else np.full((1, 3 * WIDTH), FAR, np.float32)
+        self.node_q = np.concatenate(qs) if qs else np.zeros((1, 6 * WIDTH), np.uint8)
+        self.node_frame = np.concatenate(frames) if frames else np.zeros((1, 6), np.float32)
         self.node_link = np.concatenate(links).astype(np.int32) if links else np.full((1, WIDTH), -1, np.int32)
         self.vidx = np.concatenate(vidx) if vidx else np.zeros((0, 3), np.int32)
         self.points = np.concatenate(points) if points else np.zeros((0, 3), np.float32)
@@ -131,7 +160,7 @@ class BottomLevels:
         self.body_root = root_of_shape[body_shape]  # -1 (no shape) picks the trailing -1
         self.body_vert = first_of_shape[body_shape]
         self.build_seconds = time.perf_counter() - t0
-        self.nbytes = int(self.node_lo.nbytes + self.node_hi.nbytes + self.node_link.nbytes + self.vidx.nbytes
+        self.nbytes = int(self.node_q.nbytes + self.node_frame.nbytes + self.node_link.nbytes + self.vidx.nbytes
                           + self.points.nbytes)
 
 

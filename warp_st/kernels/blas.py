@@ -20,7 +20,8 @@ float32 numbers, computed in float64 (where the products are exact) and rounded 
 as accurate as ``wp.Mesh``'s fused products, and two triangles sharing an edge get it
 with opposite signs bit for bit, so a ray through the edge meets one of them (no
 cracks). Box tests widen the far slab by ``SLAB_GROW`` (pbrt's rule), so a box is never
-missed by rounding.
+missed by rounding; the boxes are a byte per coordinate in their node's frame
+(``accel/blas.py``), decoded per visit.
 
 Traversal as in ``traverse.py``: a visit tests the four child boxes as one 12-lane slab
 test, goes to the nearest hit child and pushes the others farthest first.
@@ -113,8 +114,15 @@ def make_blas_query(Geometry):
                 if any_hit != 0 and hit != 0:
                     break
             else:
-                lo = wp.cw_mul(g.blas_lo[first] - o12, inv12)
-                hi = wp.cw_mul(g.blas_hi[first] - o12, inv12)
+                # The child boxes decoded in the node's frame (accel/blas.quantised:
+                # they contain the exact ones), then the slab distances.
+                qn = g.blas_q[first]
+                fr = g.blas_frame[first]
+                lo = vec12()
+                hi = vec12()
+                for k in range(12):
+                    lo[k] = (fr[k // 4] + wp.float32(qn[k]) * fr[3 + k // 4] - o12[k]) * inv12[k]
+                    hi[k] = (fr[k // 4] + wp.float32(qn[12 + k]) * fr[3 + k // 4] - o12[k]) * inv12[k]
                 links = g.blas_link[first]
                 e = wp.vec4()
                 hits = int(0)
@@ -123,7 +131,7 @@ def make_blas_query(Geometry):
                                      fmin(lo[8 + k], hi[8 + k])), 0.0)
                     far = fmin(fmin(fmin(fmax(lo[k], hi[k]), fmax(lo[4 + k], hi[4 + k])),
                                     fmax(lo[8 + k], hi[8 + k])) * SLAB_GROW, best)
-                    if near <= far:
+                    if near <= far and links[k] >= 0:
                         e[k] = near
                         hits += 1
                     else:

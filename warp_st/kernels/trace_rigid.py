@@ -61,7 +61,8 @@ def make_trace_rigid(scalar):
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
     vec16 = wp.types.vector(16, scalar)
-    vec12f = wp.types.vector(12, wp.float32)
+    vec24ub = wp.types.vector(24, wp.uint8)
+    vec6f = wp.types.vector(6, wp.float32)
     solid_interval = make_quadrics()
     fmin, fmax, safe_inv, SLAB_GROW = make_box_ops(scalar)
     BIG = 1.0e30
@@ -116,8 +117,8 @@ def make_trace_rigid(scalar):
         # The bottom levels (accel/blas.py, kernels/blas.py): every shape's 4-wide 3D
         # BVH over its triangles (shape_vidx, in leaf order), the shapes' rest points and
         # where each body's shape's points start in them.
-        blas_lo: wp.array(dtype=vec12f)
-        blas_hi: wp.array(dtype=vec12f)
+        blas_q: wp.array(dtype=vec24ub)  # child boxes, a byte per coordinate in the node's frame
+        blas_frame: wp.array(dtype=vec6f)
         blas_link: wp.array(dtype=wp.vec4i)
         blas_points: wp.array(dtype=wp.vec3)
         body_blas_vert: wp.array(dtype=wp.int32)
