@@ -59,6 +59,16 @@ def exact_balls():
     return synthetic_scene("balls", bodies, [sun], dataclasses.replace(CAMERA, time=10.0))
 
 
+def _rendered_bytes(scene, shapes: int):
+    """(renderer, its database's tables, bytes per triangle) after one render of
+    ``scene``'s 99,840 triangles held in ``shapes`` shapes."""
+    r = Renderer(scene, frames=[0.0], width=16, height=16)
+    r.render(0.0)
+    assert r.database.shapes.triangle_count == 99_840 and r.database.bottom.count == shapes
+    tables = rigid_tables(r.database)
+    return r, tables, total_bytes(tables) / r.database.shapes.triangle_count
+
+
 def test_static_rigid_database_stays_within_its_bytes_per_triangle():
     """16 instances of a 6,240-triangle sphere (99,840 triangles). The layout's bytes
     per triangle: normal (3 x float32) 12, size (float32) 4, smooth, body and material
@@ -73,13 +83,8 @@ def test_static_rigid_database_stays_within_its_bytes_per_triangle():
     8 bytes per triangle more (a float64 copy of the normals or sizes kept beside the
     float32 ones, or vertex indices per body) and for the leaf-order vertex copy back
     (36 bytes per shape triangle, 2.25 here)."""
-    scene = instanced_spheres(80)
-    r = Renderer(scene, frames=[0.0], width=16, height=16)
-    r.render(0.0)
+    r, tables, per_triangle = _rendered_bytes(instanced_spheres(80), shapes=1)
     tris = r.database.shapes.triangle_count
-    assert tris == 99_840 and r.database.bottom.count == 1
-    tables = rigid_tables(r.database)
-    per_triangle = total_bytes(tables) / tris
     assert per_triangle <= 38.0, [(t.name, t.dtype, round(t.nbytes / tris, 1)) for t in tables[:8]]
     # The count sees the bottom level and every upload: a buffer left out would make the
     # bound meaningless.
@@ -103,12 +108,8 @@ def test_distinct_shapes_stay_within_64_bytes_per_triangle():
         surf = b.surfaces[0]
         pts = (surf.points - b.origin) * (1.0 + 2.0 ** -10 * (i + 1)) + b.origin  # another radius: another shape
         bodies.append(dataclasses.replace(b, surfaces=(dataclasses.replace(surf, points=pts),)))
-    r = Renderer(dataclasses.replace(scene, bodies=tuple(bodies)), frames=[0.0], width=16, height=16)
-    r.render(0.0)
+    r, tables, per_triangle = _rendered_bytes(dataclasses.replace(scene, bodies=tuple(bodies)), shapes=16)
     tris = r.database.shapes.triangle_count
-    assert tris == 99_840 and r.database.bottom.count == 16
-    tables = rigid_tables(r.database)
-    per_triangle = total_bytes(tables) / tris
     assert per_triangle <= 64.0, [(t.name, t.dtype, round(t.nbytes / tris, 1)) for t in tables[:12]]
 
 
