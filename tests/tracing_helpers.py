@@ -70,18 +70,23 @@ class RigidDatabase(Database):
     """The two-level rigid database of a scene (bottom levels per shape, a top level over
     the motion segments of fixed windows), uploaded for one render origin. ``cast``
     returns global triangle indices (``prim_tri`` is the identity), numbered as the
-    extrusion numbers them when every body has a window."""
+    extrusion numbers them when every body has a window: the database's own are each
+    shape's triangles in its bottom level's leaf order (``accel.blas.bottom_levels``),
+    ``original`` maps them back."""
 
     def __init__(self, scene, windows, *, origin=(0, 0, 0, 0)):
+        from warp_st.accel.blas import leaf_order
         from warp_st.accel.instances import BottomLevels, build_top_level
         from warp_st.rendering.device_rigid import RigidArrays, make_rigid_geometry
-        from warp_st.spacetime.rigid import motion_segments, rigid_shapes
+        from warp_st.spacetime.rigid import motion_segments, renumbered, rigid_shapes, triangle_order
 
         init_warp()
         self.k = get_kernels("float32", "rigid")
         self.np_scalar = np.float32
-        self.shapes = rigid_shapes(scene)
-        self.bottom = BottomLevels(self.shapes)
+        shapes = rigid_shapes(scene)
+        self.bottom = BottomLevels(shapes)  # as accel.blas.bottom_levels, keeping the orders
+        self.original = triangle_order(shapes, self.bottom.orders)
+        self.shapes = renumbered(shapes, self.bottom.orders, self.bottom.vidx, self.bottom.points, leaf_order)
         self.segments = motion_segments(scene, self.shapes, windows)
         self.bvh = build_top_level(self.segments)
         self.static = RigidArrays(self.k, self.shapes, self.bottom, self.segments, self.bvh)
@@ -89,6 +94,10 @@ class RigidDatabase(Database):
         self.geo = make_rigid_geometry(self.k, self.static, self.segments, self.bvh, self.origin)
         self.prim_tri = np.arange(self.shapes.triangle_count)
         self.prim_count = self.segments.count
+
+    def cast(self, origins, dirs, *, finite=True, brute=False):
+        tri, s, visits = super().cast(origins, dirs, finite=finite, brute=brute)
+        return np.where(tri >= 0, self.original[np.maximum(tri, 0)], tri), s, visits
 
 
 def solve_tets_f64(events, origin, direction, finite=True):

@@ -32,7 +32,6 @@ from warp_st.kernels.blas import make_blas_query
 from warp_st.rendering.warp_init import init_warp
 
 ROOT = Path(__file__).resolve().parents[2]
-VEC12 = wp.types.vector(12, wp.float32)
 #: Conditioned t error bound (see the module docstring and ``_t_error``): ~80 ulps.
 T_TOL = 1.0e-5
 #: A float64 hit this close to an edge of its triangle (relative to the coordinates,
@@ -50,7 +49,7 @@ _query = make_blas_query(Blas)
 def _blas_rays(g: Blas, root: int, p: wp.array(dtype=wp.vec3), d: wp.array(dtype=wp.vec3), t_max: float,
                any_hit: int, face: wp.array(dtype=wp.int32), t: wp.array(dtype=float), uv: wp.array(dtype=wp.vec2)):
     i = wp.tid()
-    hit, tt, u, v, f = _query(g, root, p[i], d[i], t_max, any_hit)
+    hit, tt, u, v, f = _query(g, root, 0, 0, p[i], d[i], t_max, any_hit)
     face[i] = wp.where(hit != 0, f, -1)
     t[i] = tt
     uv[i] = wp.vec2(u, v)
@@ -66,23 +65,29 @@ def _mesh_rays(mesh: wp.uint64, p: wp.array(dtype=wp.vec3), d: wp.array(dtype=wp
 
 
 class Shape:
-    """One shape's bottom level (as the renderer builds it) and its float32 triangles."""
+    """One shape's bottom level (as the renderer builds it) and its float32 triangles,
+    renumbered into the tree's leaf order as the renderer's shapes are
+    (``accel.blas.bottom_levels``): the faces the query returns index ``triangles``."""
 
     def __init__(self, points, triangles):
         init_warp()
         self.points = np.asarray(points, np.float32)
-        self.triangles = np.asarray(triangles, np.int64).reshape(-1, 3)
+        triangles = np.asarray(triangles, np.int64).reshape(-1, 3)
 
         class _Shapes:  # what BottomLevels reads of spacetime.rigid.RigidShapes
             shape_rest = [self.points]
-            shape_triangles = [self.triangles]
+            shape_triangles = [triangles]
             body_shape = np.array([0])
 
         self.bottom = BottomLevels(_Shapes)
+        self.order = self.bottom.orders[0]  # leaf slot -> the triangle's index in ``triangles`` given
+        self.triangles = triangles[self.order]
+        assert np.array_equal(self.bottom.vidx, self.triangles)
         self.g = Blas()
-        for name, attr, dtype in (("blas_lo", "node_lo", VEC12), ("blas_hi", "node_hi", VEC12),
-                                  ("blas_link", "node_link", wp.vec4i), ("blas_vert", "tri_vert", wp.vec3),
-                                  ("blas_face", "tri_face", wp.int32)):
+        for name, attr, dtype in (("blas_q", "node_q", wp.types.vector(24, wp.uint8)),
+                                  ("blas_frame", "node_frame", wp.types.vector(6, wp.float32)),
+                                  ("blas_link", "node_link", wp.vec4i), ("shape_vidx", "vidx", wp.vec3i),
+                                  ("blas_points", "points", wp.vec3)):
             setattr(self.g, name, wp.array(getattr(self.bottom, attr), dtype=dtype, device="cpu"))
 
     def query(self, p, d, t_max=1.0e30, any_hit=False):
@@ -311,8 +316,8 @@ def test_degenerate_triangles_are_never_hit_and_do_not_hide_others():
     p, d = _rays(shape, 3000, seed=11)
     face, t, _uv = shape.query(p, d)
     ref, t_ref, bary = shape.brute(p, d)
-    degenerate = np.array([2, 3, 5, 4])  # zero area: repeated or collinear vertices
-    assert not np.isin(face, degenerate[:3]).any()
+    degenerate = np.array([2, 3, 5, 4])  # zero area: repeated or collinear vertices (_degenerate_shape's rows)
+    assert not np.isin(shape.order[face[face >= 0]], degenerate[:3]).any()
     near_edge = _near_edge(shape, ref, p, d) | _near_edge(shape, face, p, d)
     assert np.array_equal((face >= 0)[~near_edge], (ref >= 0)[~near_edge])
 
@@ -365,3 +370,77 @@ def test_axis_rays_through_the_diagonals_and_edges_of_a_cube_hit():
     face, t_hit, _uv = shape.query(np.array(origins), np.array(dirs))
     assert (face >= 0).all(), int((face < 0).sum())
     assert np.allclose(t_hit, 4.5)  # the face at 0.5, exactly 4.5 from the origin plane
+
+
+def test_renumbered_shapes_keep_every_table_with_its_triangle():
+    """``bottom_levels`` renumbers each shape's triangles into its leaf order: every
+    per-triangle table moves with its triangle (the row a hit returns shades as before),
+    the shapes' vertex indices are the rows the traversal reads, and a remake of the
+    tables in float64 (``shading_tables``) follows the same order. Oracle: the tables of
+    ``rigid_shapes`` before renumbering, permuted by ``triangle_order``."""
+    import warp_st
+    from warp_st.accel.blas import bottom_levels
+    from warp_st.spacetime.rigid import rigid_shapes, shading_tables, triangle_order
+
+    scene = warp_st.load(str(ROOT / "usd_scenes" / "thesis" / "stage.usda"))
+    before = rigid_shapes(scene)
+    kept = BottomLevels(before)
+    perm = triangle_order(before, kept.orders)
+    shapes, bottom = bottom_levels(before)
+    assert bottom.orders is None and not np.array_equal(perm, np.arange(len(perm)))  # renumbered indeed
+    for name in ("tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material"):
+        assert np.array_equal(getattr(shapes, name), getattr(before, name)[perm]), name
+    assert shapes.shape_vidx is bottom.vidx
+    for b in np.flatnonzero(before.body_shape >= 0):  # body b's triangle k is its shape's row k
+        s, base, first = before.body_shape[b], before.body_tri_base[b], before.body_shape_tri[b]
+        n = len(before.shape_triangles[s])
+        assert np.array_equal(shapes.shape_vidx[first:first + n], before.shape_triangles[s][perm[base:base + n] - base])
+    wide = shading_tables(shapes, np.float64)
+    assert wide.tri_normal.dtype == np.float64
+    # float64 normals against the float32 ones: within float32 rounding (unit vectors).
+    assert np.abs(wide.tri_normal - shapes.tri_normal).max() < 1e-6
+    assert np.array_equal(wide.tri_material, shapes.tri_material) and np.array_equal(wide.tri_body, shapes.tri_body)
+
+
+def test_quantised_boxes_contain_the_exact_ones():
+    """A wide node's byte-quantised child boxes (``accel.blas.quantised``), decoded as the
+    traversal decodes them, origin + q step in float32 (rounded after the product and
+    after the sum, or from the exact product as a fused multiply-add: either may be
+    compiled), contain the float32 boxes they stand for: the triangles' boxes of shipped
+    shapes, four to a node, and random boxes far from the coordinates' origin relative to
+    their size (1e4 away, 1e-3 small, where a float32 ulp of the node is a large part of
+    the step) with empty slots. Exact oracle: comparisons of float32 values. (The ray
+    tests above do not see a missing margin; this one fails without it.)"""
+    from warp_st.accel.blas import quantised
+
+    rng = np.random.default_rng(5)
+    cases = []
+    for offset, size in ((0.0, 1.0), (1.0e4, 1.0e-3), (-3.0e4, 5.0e-2), (0.0, 1.0e-30)):
+        w = 4000
+        lo = (offset + size * rng.uniform(-1, 1, (w, 3, 1)) + size * rng.uniform(0, 1, (w, 3, 4))).astype(np.float32)
+        hi = (lo + size * rng.uniform(0, 1, (w, 3, 4))).astype(np.float32)
+        empty = rng.uniform(size=(w, 4)) < 0.2
+        empty[:, 0] = False
+        cases.append((lo.reshape(w, 12), hi.reshape(w, 12), empty))
+    for name, rest, tris in _stage_shapes()[::4]:
+        pts = np.asarray(rest, np.float32)
+        t = np.asarray(tris, np.int64).reshape(-1, 3)
+        a, b, c = (pts[t[:, k]] for k in range(3))
+        box_lo, box_hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
+        n = len(t) // 4 * 4
+        if n:  # four triangles a node, axis-major
+            cases.append((box_lo[:n].reshape(-1, 4, 3).transpose(0, 2, 1).reshape(-1, 12),
+                          box_hi[:n].reshape(-1, 4, 3).transpose(0, 2, 1).reshape(-1, 12),
+                          np.zeros((n // 4, 4), bool)))
+    for lo, hi, empty in cases:
+        q, frame = quantised(lo, hi, empty)
+        origin = np.repeat(frame[:, :3], 4, axis=1)
+        step = np.repeat(frame[:, 3:], 4, axis=1)
+        full = np.tile(empty, (1, 3))
+        for k, corner, below in ((0, lo, True), (12, hi, False)):
+            qk = q[:, k:k + 12].astype(np.float32)
+            separate = origin + (qk * step).astype(np.float32)  # float32 throughout
+            fused = (origin.astype(np.float64) + qk.astype(np.float64) * step.astype(np.float64)).astype(np.float32)
+            for decoded in (separate, fused):
+                ok = decoded <= corner if below else decoded >= corner
+                assert (ok | full).all(), (k, int((~ok & ~full).sum()))

@@ -59,32 +59,58 @@ def exact_balls():
     return synthetic_scene("balls", bodies, [sun], dataclasses.replace(CAMERA, time=10.0))
 
 
+def _rendered_bytes(scene, shapes: int):
+    """(renderer, its database's tables, bytes per triangle) after one render of
+    ``scene``'s 99,840 triangles held in ``shapes`` shapes."""
+    r = Renderer(scene, frames=[0.0], width=16, height=16)
+    r.render(0.0)
+    assert r.database.shapes.triangle_count == 99_840 and r.database.bottom.count == shapes
+    tables = rigid_tables(r.database)
+    return r, tables, total_bytes(tables) / r.database.shapes.triangle_count
+
+
 def test_static_rigid_database_stays_within_its_bytes_per_triangle():
     """16 instances of a 6,240-triangle sphere (99,840 triangles). The layout's bytes
     per triangle: normal (3 x float32) 12, size (float32) 4, smooth, body and material
     (int32) 12, and the vertex normals (3 x float32 per vertex, 0.5 vertices per triangle
     of a closed sphere) 6: 34; the one shape's bottom level, shared by 16 bodies
-    (accel/blas.py: leaf-order vertices 36 and faces 4, wide nodes ~67, indices 12 and rest
-    points 6 per triangle of the shape) over 16, ~7.8; the per-body and per-segment rows
-    (~1 KB per body over 6,240 triangles) ~0.2. Measured 41.6 with wp.Mesh as the bottom
-    level (7.4). The bound, 46, leaves 4 B for those rows and for the pole's vertices
-    (a sphere has slightly more than half a vertex per triangle), and fails for any
-    table of 8 bytes per triangle more: a float64 copy of the normals or sizes kept
-    beside the float32 ones, or vertex indices per body."""
-    scene = instanced_spheres(80)
-    r = Renderer(scene, frames=[0.0], width=16, height=16)
-    r.render(0.0)
+    (accel/blas.py: wide nodes ~19, and the shape's own vertex indices 12 and rest points
+    6, which the traversal reads: one vertex store per shape) over 16, ~2.3; the per-body
+    and per-segment rows (~1 KB per body over 6,240 triangles) ~0.2. Measured 36.6 (43.2
+    with a leaf-order copy of the vertices and faces beside the shape's, 0.7.0; 41.6 with
+    wp.Mesh). The bound, 38, leaves 1.4 B for those rows and for the pole's vertices (a
+    sphere has slightly more than half a vertex per triangle), and fails for any table of
+    8 bytes per triangle more (a float64 copy of the normals or sizes kept beside the
+    float32 ones, or vertex indices per body) and for the leaf-order vertex copy back
+    (36 bytes per shape triangle, 2.25 here)."""
+    r, tables, per_triangle = _rendered_bytes(instanced_spheres(80), shapes=1)
     tris = r.database.shapes.triangle_count
-    assert tris == 99_840 and r.database.bottom.count == 1
-    tables = rigid_tables(r.database)
-    per_triangle = total_bytes(tables) / tris
-    assert per_triangle <= 46.0, [(t.name, t.dtype, round(t.nbytes / tris, 1)) for t in tables[:8]]
+    assert per_triangle <= 38.0, [(t.name, t.dtype, round(t.nbytes / tris, 1)) for t in tables[:8]]
     # The count sees the bottom level and every upload: a buffer left out would make the
     # bound meaningless.
     names = {t.name for t in tables}
-    assert {"host bottom.tri_vert", "host bottom.node_lo", "host shapes.tri_normal"} <= names
+    assert {"host shapes.shape_triangles", "host bottom.node_q", "host shapes.tri_normal"} <= names
     bottom = sum(t.nbytes for t in tables if t.name.startswith("host bottom."))
-    assert bottom >= (tris // 16) * (36 + 4)  # at least the one shape's vertices and faces
+    assert bottom >= (tris // 16) * 8  # at least the one shape's nodes (~19 bytes per triangle)
+
+
+def test_distinct_shapes_stay_within_64_bytes_per_triangle():
+    """16 spheres of 6,240 triangles, each of its own radius (16 shapes, no instancing:
+    99,840 triangles). Issue 17's bound, 64 bytes per triangle, is the layout's: the
+    shading tables 34 (see above), the shape's vertex indices 12 and rest points 6 (which
+    the shading and the traversal both read: one vertex store), and the wide nodes with
+    their child boxes a byte per coordinate (accel/blas.py: 64 bytes a node, ~0.17 nodes
+    per triangle of these shapes, 11.1). Measured 63.4; with the boxes as float32 (112
+    bytes a node, 0.7.0) 71.7, with a leaf-order copy of the vertices as well 107.7."""
+    scene = instanced_spheres(80)
+    bodies = []
+    for i, b in enumerate(scene.bodies):
+        surf = b.surfaces[0]
+        pts = (surf.points - b.origin) * (1.0 + 2.0 ** -10 * (i + 1)) + b.origin  # another radius: another shape
+        bodies.append(dataclasses.replace(b, surfaces=(dataclasses.replace(surf, points=pts),)))
+    r, tables, per_triangle = _rendered_bytes(dataclasses.replace(scene, bodies=tuple(bodies)), shapes=16)
+    tris = r.database.shapes.triangle_count
+    assert per_triangle <= 64.0, [(t.name, t.dtype, round(t.nbytes / tris, 1)) for t in tables[:12]]
 
 
 def test_float64_upload_of_float32_shapes_has_float64_tables():

@@ -10,15 +10,25 @@ times L to within 0.1 %, and the SAH orders splits as a 3D one does.
 
 All shapes share one set of arrays (``kernels/blas.py`` traverses them):
 
-- ``node_lo`` / ``node_hi`` (W, 12) float32: a wide node's four child boxes,
-  axis-major (x0..x3, y0..y3, z0..z3); an empty slot's box is a point at 1e30, which a
-  query (finite t_max, from inside the shape's box) never reaches, and its link -1;
+- ``node_q`` (W, 24) uint8 and ``node_frame`` (W, 6) float32: a wide node's four child
+  boxes, axis-major (x0..x3, y0..y3, z0..z3 of the lower corners, then of the upper),
+  quantised to a byte per coordinate in the node's frame (origin and step per axis:
+  ``quantised``; 64 bytes a node with the links, 112 as float32 boxes); an empty slot's
+  link is -1;
 - ``node_link`` (W, 4) int32: ``first << LINK_SHIFT | count``, a leaf's range of
   triangle slots or (count 0) a wide node, global over the shapes;
-- ``tri_vert`` (3 T,) vec3: each triangle's vertices in the shape's index order, stored
-  in leaf order (a leaf's triangles are contiguous); ``tri_face`` (T,) int32 the
-  triangle's index in its shape (what ``wp.mesh_query_ray`` calls the face);
-- ``body_root`` (B,) int32: the root wide node of each body's shape (-1: no triangles).
+- ``vidx`` (T, 3) int32: every shape's triangles (vertex indices in the shape), shape
+  after shape, each shape's in its tree's leaf order (a leaf's triangles are
+  contiguous): slot i is row i. It is the shapes' own table too: ``bottom_levels``
+  renumbers each shape's triangles into this order once (``spacetime.rigid.renumbered``),
+  so the shading reads the same rows (``shape_vidx``) and a hit's slot minus its shape's
+  first row is the triangle's index in its shape (one vertex store per shape, issue 17);
+- ``points`` (P, 3) float32: every shape's rest points, shape after shape (the shapes'
+  ``shape_rest`` are views of it); ``body_vert`` (B,) int32: where each body's shape's
+  points start in it;
+- ``body_root`` (B,) int32: the root wide node of each body's shape (-1: no triangles,
+  or a shape only exact quadrics use: they are traced as quadrics, ``trace_rigid.py``,
+  and keep their triangles' order).
 """
 from __future__ import annotations
 
@@ -29,18 +39,14 @@ import numpy as np
 from warp_st.accel.bvh import build_bvh
 from warp_st.accel.bvh_wide import collapse, wide_boxes
 from warp_st.kernels.layout import LINK_SHIFT, WIDTH
-from warp_st.spacetime.rigid import RigidShapes
+from warp_st.spacetime.rigid import RigidShapes, renumbered
 
-__all__ = ["BottomLevels", "shape_tree"]
-
-#: An empty slot's box: a point no query reaches (its t range is finite and starts in
-#: the shape's box, which float32 rest coordinates keep far below this).
-FAR = 1.0e30
-
+__all__ = ["BottomLevels", "bottom_levels", "leaf_order", "shape_tree"]
 
 def shape_tree(points: np.ndarray, triangles: np.ndarray):
-    """The 4-wide tree of one shape: (lo (W, 12), hi (W, 12), link (W, 4) local,
-    order (T,) the triangles in leaf order). ``points`` float32 (P, 3)."""
+    """The 4-wide tree of one shape: (q (W, 24) uint8 and frame (W, 6) float32, the
+    quantised child boxes (``quantised``), link (W, 4) local, order (T,) the triangles in
+    leaf order). ``points`` float32 (P, 3)."""
     a, b, c = (points[triangles[:, k]] for k in range(3))  # float32: the boxes are exact
     # Pairwise, not a reduction over an axis of three (ten times slower in NumPy).
     lo3 = np.minimum(np.minimum(a, b), c).astype(np.float64)
@@ -61,50 +67,114 @@ def shape_tree(points: np.ndarray, triangles: np.ndarray):
     # every ray that meets the triangles.
     lo = np.nextafter(lo16[:, WIDTH:].astype(np.float32), np.float32(-np.inf))
     hi = np.nextafter(hi16[:, WIDTH:].astype(np.float32), np.float32(np.inf))
-    empty = np.tile(wide.slot_node < 0, (1, 3))  # slot k is lanes k, 4 + k, 8 + k
-    lo[empty] = FAR
-    hi[empty] = FAR
-    return lo, hi, wide.link, bvh.order
+    q, frame = quantised(lo, hi, wide.slot_node < 0)
+    return q, frame, wide.link, bvh.order
+
+
+#: Quantisation steps of a child box coordinate within its wide node (one byte).
+STEPS = 255
+
+
+def quantised(lo: np.ndarray, hi: np.ndarray, empty: np.ndarray):
+    """Wide nodes' child boxes ``lo`` / ``hi`` (W, 12) float32, axis-major, as one byte
+    per coordinate in the node's frame: (q (W, 24) uint8, the children's lower corners
+    then upper ones; frame (W, 6) float32, the origin and step per axis). A child's box
+    is origin + q step (``kernels/blas.py`` decodes it in float32) and contains the given
+    one: lower corners round down, upper ones up, past a margin of 4 float32 ulps of the
+    node's coordinates (the decode's rounding is below 1.5 of them). ``empty`` (W, 4):
+    slots without a child (their q is 0; the traversal tests their link, -1)."""
+    w = len(lo)
+    lo3 = lo.astype(np.float64).reshape(w, 3, WIDTH)
+    hi3 = hi.astype(np.float64).reshape(w, 3, WIDTH)
+    full = np.repeat(empty[:, None, :], 3, axis=1)
+    low = np.where(full, np.inf, lo3).min(axis=2)  # (W, 3)
+    high = np.where(full, -np.inf, hi3).max(axis=2)
+    margin = 4.0 * np.spacing(np.maximum(np.abs(low), np.abs(high)).astype(np.float32)).astype(np.float64) + 1.0e-30
+    origin = (low - margin).astype(np.float32)
+    origin = np.where(origin > low - margin, np.nextafter(origin, np.float32(-np.inf)), origin)
+    step64 = (high + margin - origin) / STEPS
+    step = step64.astype(np.float32)
+    step = np.where(step < step64, np.nextafter(step, np.float32(np.inf)), step)
+    o, st = origin.astype(np.float64)[:, :, None], step.astype(np.float64)[:, :, None]
+    q_lo = np.clip(np.floor((lo3 - margin[:, :, None] - o) / st), 0, STEPS)
+    q_hi = np.clip(np.ceil((hi3 + margin[:, :, None] - o) / st), 0, STEPS)
+    q_lo[full] = 0
+    q_hi[full] = 0
+    q = np.concatenate([q_lo.reshape(w, 12), q_hi.reshape(w, 12)], axis=1).astype(np.uint8)
+    return q, np.concatenate([origin, step], axis=1)
 
 
 class BottomLevels:
-    """The bottom levels of ``shapes`` (see the module docstring), NumPy arrays.
+    """The bottom levels of ``shapes`` (see the module docstring), NumPy arrays, built
+    over the shapes' triangles in their given order.
 
-    ``build_seconds``: the build's wall time; ``nbytes``: what the arrays hold;
-    ``count``: the number of shapes.
+    ``orders``: each shape's leaf order (its triangles' indices in the order of
+    ``vidx``; None for a shape without a tree) until ``bottom_levels`` has renumbered the
+    shapes and drops them; ``build_seconds``: the build's wall time; ``nbytes``: what
+    the arrays hold; ``count``: the number of shapes.
     """
 
     def __init__(self, shapes: RigidShapes):
         t0 = time.perf_counter()
-        los, his, links, verts, faces, roots = [], [], [], [], [], []
-        node_base = tri_base = 0
-        for rest, tris in zip(shapes.shape_rest, shapes.shape_triangles):
-            tris = np.asarray(tris, dtype=np.int64).reshape(-1, 3)
-            points = np.asarray(rest, dtype=np.float64).astype(np.float32)
-            if len(tris) == 0:
+        body_shape = np.asarray(shapes.body_shape)
+        quadric = np.asarray(getattr(shapes, "body_quadric", np.zeros(len(body_shape), np.int32)))
+        n_shapes = len(shapes.shape_rest)
+        # A shape only exact quadrics use is never queried: no tree, its order kept.
+        traced = np.zeros(n_shapes + 1, bool)
+        traced[body_shape[(body_shape >= 0) & (quadric == 0)]] = True
+        qs, frames, links, vidx, points, roots, firsts, self.orders = [], [], [], [], [], [], [], []
+        node_base = tri_base = vert_base = 0
+        for s, (rest, tris) in enumerate(zip(shapes.shape_rest, shapes.shape_triangles)):
+            tris = np.asarray(tris, dtype=np.int32).reshape(-1, 3)
+            pts = np.asarray(rest, dtype=np.float64).astype(np.float32)
+            firsts.append(vert_base)
+            points.append(pts)
+            vert_base += len(pts)
+            if len(tris) == 0 or not traced[s]:
                 roots.append(-1)
+                self.orders.append(None)
+                vidx.append(tris)
+                tri_base += len(tris)
                 continue
-            lo, hi, link, order = shape_tree(points, tris)
+            q, frame, link, order = shape_tree(pts, tris)
             is_leaf = (link >= 0) & ((link & ((1 << LINK_SHIFT) - 1)) > 0)
             base = np.where(is_leaf, tri_base, node_base).astype(np.int64) << LINK_SHIFT
             links.append(np.where(link >= 0, link.astype(np.int64) + base, -1))
-            los.append(lo)
-            his.append(hi)
-            verts.append(points[tris[order]].reshape(-1, 3))
-            faces.append(order.astype(np.int32))
+            qs.append(q)
+            frames.append(frame)
+            vidx.append(tris[order])
+            self.orders.append(order)
             roots.append(node_base)
-            node_base += len(lo)
+            node_base += len(q)
             tri_base += len(tris)
         if (node_base | tri_base) >= 2 ** (31 - LINK_SHIFT):
             raise ValueError("bottom levels too large for packed node links")
         self.count = len(roots)
-        self.node_lo = np.concatenate(los) if los else np.full((1, 3 * WIDTH), FAR, np.float32)
-        self.node_hi = np.concatenate(his) if his else np.full((1, 3 * WIDTH), FAR, np.float32)
+        self.node_q = np.concatenate(qs) if qs else np.zeros((1, 6 * WIDTH), np.uint8)
+        self.node_frame = np.concatenate(frames) if frames else np.zeros((1, 6), np.float32)
         self.node_link = np.concatenate(links).astype(np.int32) if links else np.full((1, WIDTH), -1, np.int32)
-        self.tri_vert = np.concatenate(verts) if verts else np.zeros((3, 3), np.float32)
-        self.tri_face = np.concatenate(faces) if faces else np.zeros(1, np.int32)
+        self.vidx = np.concatenate(vidx) if vidx else np.zeros((0, 3), np.int32)
+        self.points = np.concatenate(points) if points else np.zeros((0, 3), np.float32)
         root_of_shape = np.array(roots + [-1], dtype=np.int32)
-        self.body_root = root_of_shape[shapes.body_shape]  # -1 (no shape) picks the trailing -1
+        first_of_shape = np.array(firsts + [0], dtype=np.int32)
+        self.body_root = root_of_shape[body_shape]  # -1 (no shape) picks the trailing -1
+        self.body_vert = first_of_shape[body_shape]
         self.build_seconds = time.perf_counter() - t0
-        self.nbytes = int(self.node_lo.nbytes + self.node_hi.nbytes + self.node_link.nbytes + self.tri_vert.nbytes
-                          + self.tri_face.nbytes)
+        self.nbytes = int(self.node_q.nbytes + self.node_frame.nbytes + self.node_link.nbytes + self.vidx.nbytes
+                          + self.points.nbytes)
+
+
+def leaf_order(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """The leaf order ``BottomLevels`` gives one shape's triangles (the build is
+    deterministic: the same points and triangles give the same tree)."""
+    return shape_tree(np.asarray(points, np.float32), np.asarray(triangles, np.int32).reshape(-1, 3))[3]
+
+
+def bottom_levels(shapes: RigidShapes) -> tuple[RigidShapes, BottomLevels]:
+    """The bottom levels of ``shapes`` and the shapes renumbered into their leaf order
+    (``spacetime.rigid.renumbered``: every per-triangle table follows, so the images are
+    the same; the shapes' triangles and points are the bottom levels' arrays)."""
+    bottom = BottomLevels(shapes)
+    ordered = renumbered(shapes, bottom.orders, bottom.vidx, bottom.points, leaf_order)
+    bottom.orders = None
+    return ordered, bottom

@@ -3,12 +3,15 @@
 The tree is ``accel/blas.py``'s (every shape's nodes and triangles in shared arrays,
 ``Geometry.blas_*``). ``make_blas_query(Geometry)`` gives
 
-    blas_query(g, root, p, d, t_max, any_hit) -> (hit, t, u, v, face)
+    blas_query(g, root, vert, tri0, p, d, t_max, any_hit) -> (hit, t, u, v, face)
 
 the closest (with ``any_hit``, any) crossing of the float32 ray p + t d, t in
 [0, t_max], with the triangles under wide node ``root``: t in units of d, (u, v) the
 barycentric weights of the triangle's first and second vertices, ``face`` its index in
-its shape — what ``wp.mesh_query_ray`` returns for the same ray and triangles.
+its shape — what ``wp.mesh_query_ray`` returns for the same ray and triangles. A leaf's
+triangle slot i is row i of the shapes' own vertex indices (``g.shape_vidx``, in leaf
+order: accel/blas.py), its points ``g.blas_points[vert + index]`` (``vert``: where the
+shape's points start), and its face i - ``tri0`` (``tri0``: the shape's first row).
 
 The triangle test is Woop, Benthin and Wald's watertight one (JCGT 2(1), 2013): the
 ray's largest axis becomes z, the vertices are sheared so that the ray is the z axis,
@@ -17,7 +20,8 @@ float32 numbers, computed in float64 (where the products are exact) and rounded 
 as accurate as ``wp.Mesh``'s fused products, and two triangles sharing an edge get it
 with opposite signs bit for bit, so a ray through the edge meets one of them (no
 cracks). Box tests widen the far slab by ``SLAB_GROW`` (pbrt's rule), so a box is never
-missed by rounding.
+missed by rounding; the boxes are a byte per coordinate in their node's frame
+(``accel/blas.py``), decoded per visit.
 
 Traversal as in ``traverse.py``: a visit tests the four child boxes as one 12-lane slab
 test, goes to the nearest hit child and pushes the others farthest first.
@@ -40,7 +44,7 @@ def make_blas_query(Geometry):
     INF = float("inf")
 
     @wp.func(inline=True)
-    def blas_query(g: Geometry, root: int, p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int):
+    def blas_query(g: Geometry, root: int, vert: int, tri0: int, p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int):
         # The shear of Woop's test, once per ray: z along the largest |d| (the first
         # of equals), x and y swapped when d_z < 0 to keep the winding.
         kz = int(0)
@@ -78,9 +82,10 @@ def make_blas_query(Geometry):
             next_link = int(-1)
             if count > 0:
                 for i in range(first, first + count):
-                    a = g.blas_vert[3 * i] - p
-                    b = g.blas_vert[3 * i + 1] - p
-                    c = g.blas_vert[3 * i + 2] - p
+                    tri = g.shape_vidx[i]
+                    a = g.blas_points[vert + tri[0]] - p
+                    b = g.blas_points[vert + tri[1]] - p
+                    c = g.blas_points[vert + tri[2]] - p
                     ax = a[kx] - sx * a[kz]
                     ay = a[ky] - sy * a[kz]
                     bx = b[kx] - sx * b[kz]
@@ -109,8 +114,15 @@ def make_blas_query(Geometry):
                 if any_hit != 0 and hit != 0:
                     break
             else:
-                lo = wp.cw_mul(g.blas_lo[first] - o12, inv12)
-                hi = wp.cw_mul(g.blas_hi[first] - o12, inv12)
+                # The child boxes decoded in the node's frame (accel/blas.quantised:
+                # they contain the exact ones), then the slab distances.
+                qn = g.blas_q[first]
+                fr = g.blas_frame[first]
+                lo = vec12()
+                hi = vec12()
+                for k in range(12):
+                    lo[k] = (fr[k // 4] + wp.float32(qn[k]) * fr[3 + k // 4] - o12[k]) * inv12[k]
+                    hi[k] = (fr[k // 4] + wp.float32(qn[12 + k]) * fr[3 + k // 4] - o12[k]) * inv12[k]
                 links = g.blas_link[first]
                 e = wp.vec4()
                 hits = int(0)
@@ -119,7 +131,7 @@ def make_blas_query(Geometry):
                                      fmin(lo[8 + k], hi[8 + k])), 0.0)
                     far = fmin(fmin(fmin(fmax(lo[k], hi[k]), fmax(lo[4 + k], hi[4 + k])),
                                     fmax(lo[8 + k], hi[8 + k])) * SLAB_GROW, best)
-                    if near <= far:
+                    if near <= far and links[k] >= 0:
                         e[k] = near
                         hits += 1
                     else:
@@ -139,9 +151,6 @@ def make_blas_query(Geometry):
                 if st_s[sp] <= best:
                     next_link = st_node[sp]
             cur = next_link
-        face = int(-1)
-        if hit != 0:
-            face = g.blas_face[best_face]
-        return hit, best, best_u, best_v, face
+        return hit, best, best_u, best_v, best_face - tri0
 
     return blas_query

@@ -61,7 +61,8 @@ def make_trace_rigid(scalar):
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
     vec16 = wp.types.vector(16, scalar)
-    vec12f = wp.types.vector(12, wp.float32)
+    vec24ub = wp.types.vector(24, wp.uint8)
+    vec6f = wp.types.vector(6, wp.float32)
     solid_interval = make_quadrics()
     fmin, fmax, safe_inv, SLAB_GROW = make_box_ops(scalar)
     BIG = 1.0e30
@@ -114,12 +115,13 @@ def make_trace_rigid(scalar):
         root_lo: vec4
         root_hi: vec4
         # The bottom levels (accel/blas.py, kernels/blas.py): every shape's 4-wide 3D
-        # BVH, its triangles' vertices in leaf order and their faces in the shape.
-        blas_lo: wp.array(dtype=vec12f)
-        blas_hi: wp.array(dtype=vec12f)
+        # BVH over its triangles (shape_vidx, in leaf order), the shapes' rest points and
+        # where each body's shape's points start in them.
+        blas_q: wp.array(dtype=vec24ub)  # child boxes, a byte per coordinate in the node's frame
+        blas_frame: wp.array(dtype=vec6f)
         blas_link: wp.array(dtype=wp.vec4i)
-        blas_vert: wp.array(dtype=wp.vec3)
-        blas_face: wp.array(dtype=wp.int32)
+        blas_points: wp.array(dtype=wp.vec3)
+        body_blas_vert: wp.array(dtype=wp.int32)
 
     blas_query = make_blas_query(Geometry)
 
@@ -279,8 +281,8 @@ def make_trace_rigid(scalar):
                     attempt = int(0)  # a while loop: a constant range would be unrolled
                     while attempt < 4 and e0 < e1:
                         attempt += 1
-                        found, qt, qu, qv, face = blas_query(g, root, at(pm, dm, e0), direction, wp.float32(e1 - e0),
-                                                             shadow)
+                        found, qt, qu, qv, face = blas_query(g, root, g.body_blas_vert[body], g.body_shape_tri[body],
+                                                             at(pm, dm, e0), direction, wp.float32(e1 - e0), shadow)
                         if found == 0:
                             e1 = wp.float64(-1.0)
                         elif shadow != 0:

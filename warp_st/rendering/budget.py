@@ -55,10 +55,12 @@ BYTES_PER_PIXEL = (4 * 4 + 5 * 4 + 3 * 4) + (4 * 4 + 2 * 8 + 5 * 4)
 #: frame span changes, no body sharing its shape (rendering.database_bytes counts the
 #: real one): the shading tables, one copy the host and the device share (normal
 #: float32 x 3, size float32, smooth / body / material int32), the shape's vertex
-#: indices (int32 x 3), the bottom level (accel/blas.py: three float32 vertices, the face
-#: int32, and about 0.6 wide nodes of 112 bytes per triangle of a shape) and 16 for the
-#: build's transients (each body's triangles, held until taken).
-BYTES_PER_RIGID_TRIANGLE = (12 + 4 + 12) + 12 + (36 + 4 + 68) + 16
+#: indices (int32 x 3, which the bottom level reads too: accel/blas.py), 68 for the
+#: bottom level's build (its float64 boxes of the triangles; the wide nodes it keeps are
+#: ~11 bytes per triangle of a shape) and 16 for the build's other transients (each
+#: body's triangles, held until taken). On bench_database_bytes.py --distinct: 132 + 12
+#: per triangle against a peak RSS growth of 112.
+BYTES_PER_RIGID_TRIANGLE = (12 + 4 + 12) + 12 + 68 + 16
 #: Per vertex: shading normal (float32 x 3) and the shape's rest point (float32 x 3).
 BYTES_PER_RIGID_VERTEX = 12 + 12
 

@@ -2,8 +2,8 @@
 
 ``rigid_tables`` walks every array a rigid ``database_cache.Database`` keeps alive: the
 host tables of its shapes (``spacetime.rigid.RigidShapes``), motion segments and top
-level, the bottom levels' tables (``accel/blas.py``: wide nodes, leaf-order vertices and
-faces), the uploaded arrays of
+level, the bottom levels' tables (``accel/blas.py``: wide nodes; the shapes' vertex
+indices and points they read are the shapes' own, counted once), the uploaded arrays of
 each precision (``device_rigid.RigidArrays``) and the recentred geometries it caches.
 Each buffer is counted once, under the first name that reaches it: a device array made
 over a host table without a copy costs nothing more. The scene's own bodies and surfaces

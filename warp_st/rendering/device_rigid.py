@@ -40,12 +40,12 @@ class RigidArrays(ShadingTables):
         self.body_shape_tri = wp.array(shapes.body_shape_tri, dtype=wp.int32, device=_DEVICE)
         self.body_vert_base = wp.array(shapes.body_vert_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.body_blas = wp.array(bottom.body_root, dtype=wp.int32, device=_DEVICE)
-        vec12 = wp.types.vector(12, wp.float32)  # the bottom levels' own tables, over their memory
-        self.blas_lo = shared(bottom.node_lo, np.float32, vec12)
-        self.blas_hi = shared(bottom.node_hi, np.float32, vec12)
+        # The bottom levels' own tables, over their memory.
+        self.blas_q = shared(bottom.node_q, np.uint8, wp.types.vector(24, wp.uint8))
+        self.blas_frame = shared(bottom.node_frame, np.float32, wp.types.vector(6, wp.float32))
         self.blas_link = shared(bottom.node_link, np.int32, wp.vec4i)
-        self.blas_vert = shared(bottom.tri_vert, np.float32, wp.vec3)
-        self.blas_face = shared(bottom.tri_face, np.int32, wp.int32)
+        self.blas_points = shared(bottom.points, np.float32, wp.vec3)
+        self.body_blas_vert = wp.array(bottom.body_vert, dtype=wp.int32, device=_DEVICE)
         self.body_tri_base = wp.array(shapes.body_tri_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.body_rest = wp.array(shapes.rest_from_lab, dtype=wp.mat33d, device=_DEVICE)
         self.body_end = np.array([b.lifetime[1] for b in shapes.bodies], dtype=np.float64)
@@ -77,7 +77,7 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     for name in ("shape_vidx", "body_shape_tri", "body_vert_base", "tri_body", "body_object", "body_blas",
                  "body_tri_base", "body_rest", "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi",
                  "seg_body", "body_quadric", "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map",
-                 "body_map_shift", "blas_lo", "blas_hi", "blas_link", "blas_vert", "blas_face"):
+                 "body_map_shift", "blas_q", "blas_frame", "blas_link", "blas_points", "body_blas_vert"):
         setattr(g, name, getattr(static, name))
     g.body_velocity = static.body_velocity64
     vec2 = wp.types.vector(2, k.scalar)

@@ -390,12 +390,12 @@ class Renderer:
     def _new_rigid_database(self, scene: Scene, windows: list, tessellation: tuple, cache, t0: float):
         """The rigid database over ``windows``: the tessellation's shapes and bottom levels
         (cached on the scene apart, built on first use) under a new top level."""
-        from warp_st.accel.instances import BottomLevels, build_top_level
+        from warp_st.accel.instances import bottom_levels, build_top_level
         from warp_st.spacetime.rigid import motion_segments, rigid_shapes
 
         def shapes_and_bottom():
             shapes = rigid_shapes(scene, exact_quadrics=self.exact_quadrics)
-            return shapes, BottomLevels(shapes)
+            return bottom_levels(shapes)  # the shapes renumbered into the bottom levels' leaf order
 
         nbytes = check_resources(scene, windows, width=self.width, height=self.height, samples=self.samples,
                                  max_depth=self.max_depth, max_memory=self.max_memory, rigid=True)

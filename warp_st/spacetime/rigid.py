@@ -30,7 +30,7 @@ from warp_st.kernels.quadrics import QUADRIC_CAPSULE, QUADRIC_CONE, QUADRIC_CYLI
 from warp_st.spacetime.extrude import TriangleTables, _body_size, body_triangles
 from warp_st.spacetime.visibility import intervals
 
-__all__ = ["RigidShapes", "rigid_shapes", "shading_tables", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
+__all__ = ["RigidShapes", "rigid_shapes", "shading_tables", "renumbered", "triangle_order", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,6 +75,9 @@ class RigidShapes(TriangleTables):
         rest shape (``Body.piece_linear``), and a ray r(s) in the piece's frame
         coordinates meets it as body_map (r(s) - body_map_shift), (B, 3, 3) and (B, 3)
         (identity and zeros where not mapped; see ``rigid_shapes``).
+    reorder: None, or (after ``renumbered``: each shape's triangles in its bottom
+        level's leaf order) the function that gave a shape's order, which a remake of
+        the tables in another float type applies again (``shading_tables``).
     """
 
     shape_rest: tuple
@@ -99,6 +102,7 @@ class RigidShapes(TriangleTables):
     body_mapped: np.ndarray
     body_map: np.ndarray
     body_map_shift: np.ndarray
+    reorder: object = None
 
     @property
     def triangle_count(self) -> int:
@@ -164,7 +168,51 @@ def shading_tables(shapes: RigidShapes, dtype) -> RigidShapes:
     tables are never rounded to float32 and back)."""
     if shapes.tri_normal.dtype == np.dtype(dtype):
         return shapes
-    return _rigid_shapes(shapes.bodies, False, dtype)
+    made = _rigid_shapes(shapes.bodies, False, dtype)
+    if shapes.reorder is None:
+        return made
+    # The shapes renumbered are those a body traced as triangles uses (BottomLevels).
+    traced = set(shapes.body_shape[(shapes.body_shape >= 0) & (shapes.body_quadric == 0)].tolist())
+    orders = [shapes.reorder(rest, tris) if s in traced and len(tris) else None
+              for s, (rest, tris) in enumerate(zip(made.shape_rest, made.shape_triangles))]
+    return renumbered(made, orders, None, None, shapes.reorder)
+
+
+def triangle_order(shapes: RigidShapes, orders: list) -> np.ndarray:
+    """The global triangles of ``shapes`` in the order ``renumbered`` gives them: row k
+    of a renumbered table is row ``triangle_order[k]`` of the table before."""
+    perm = np.arange(shapes.triangle_count)
+    for b in np.flatnonzero(shapes.body_shape >= 0):
+        order = orders[shapes.body_shape[b]]
+        if order is not None:
+            base = int(shapes.body_tri_base[b])
+            perm[base:base + len(order)] = base + order
+    return perm
+
+
+def renumbered(shapes: RigidShapes, orders: list, vidx, points, reorder) -> RigidShapes:
+    """``shapes`` with shape s's triangles in the order ``orders[s]`` (indices into them;
+    None: kept): its rows of ``shape_vidx`` and every body's rows of the per-triangle
+    tables follow, so a body's triangle k is still its shape's triangle k. ``vidx`` and
+    ``points``: the renumbered ``shape_vidx`` and the shapes' points one after another,
+    when the caller holds them already (the bottom levels' arrays: the shapes take
+    views of them), else None. ``reorder``: what made the orders (``RigidShapes``)."""
+    first = np.cumsum([0] + [len(t) for t in shapes.shape_triangles])
+    if vidx is None:
+        vidx = np.concatenate([t if o is None else t[o] for t, o in zip(shapes.shape_triangles, orders)]) \
+            if len(orders) else shapes.shape_vidx
+    rest = shapes.shape_rest
+    if points is not None:
+        vfirst = np.cumsum([0] + [len(r) for r in rest])
+        rest = tuple(points[a:b] for a, b in zip(vfirst[:-1], vfirst[1:]))
+    perm = triangle_order(shapes, orders)
+    tables = {name: getattr(shapes, name)[perm] for name in ("tri_normal", "tri_smooth", "tri_size", "tri_body",
+                                                              "tri_material")}
+    if len(shapes.tri_st):
+        tables["tri_st"] = shapes.tri_st[perm]
+    return dataclasses.replace(shapes, shape_vidx=vidx, shape_rest=rest,
+                               shape_triangles=tuple(vidx[a:b] for a, b in zip(first[:-1], first[1:])),
+                               reorder=reorder, **tables)
 
 
 def rigid_shapes(scene: Scene, exact_quadrics: bool = False, dtype=np.float32) -> RigidShapes:
