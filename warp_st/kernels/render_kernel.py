@@ -108,7 +108,7 @@ def _make_render(scalar, k, trace, Geometry):
         source_time: wp.array(dtype=scalar)
         bounces: wp.array(dtype=wp.int32)
         sample_id: wp.array(dtype=wp.int32)  # Cryptomatte: 1 + the triangle each sample hits first, 0: none; empty: off
-        visits: wp.array(dtype=wp.int32)
+        visits: wp.array(dtype=wp.int32)  # node visits per kernel thread (its PIXELS_PER_THREAD pixels), not per pixel
         overflow: wp.array(dtype=wp.int32)
 
     @wp.func
@@ -210,6 +210,8 @@ def _make_render(scalar, k, trace, Geometry):
         first_prim = int(-1)
         first_s = scalar(0.0)
         first_lam = vec4(scalar(0.0))
+        first_u = vec3(scalar(0.0))
+        first_gamma = scalar(1.0)
         source_t = scalar(wp.nan)
         source_bounces = int(0)
         bounces = int(0)
@@ -244,8 +246,13 @@ def _make_render(scalar, k, trace, Geometry):
             body = shd.tri_body[tri]
             u, gamma_u = point_velocity(geo, shd, prim, lam, body, event)  # the emitting point's own velocity
             normal = shading_normal(geo, shd, prim, lam, n, u)
+            if depth == 0:
+                first_u = u
+                first_gamma = gamma_u
             if metal < scalar(1.0):
-                local = shade(geo, shd, finite, prim, path, event, normal, diffuse, emissive, u, gamma_u)
+                local = emissive + diffuse  # unlit: what shade() returns without lights, without its call
+                if shd.light_count > 0:
+                    local = shade(geo, shd, finite, prim, path, event, normal, diffuse, emissive, u, gamma_u)
                 if shd.sky.present != 0:  # the dome's diffuse light (no shadowing), instead of the unlit albedo
                     lit = wp.cw_mul(diffuse, sky_irradiance(shd.sky, normal)) * scalar(INV_PI)
                     if shd.light_count == 0:
@@ -291,7 +298,7 @@ def _make_render(scalar, k, trace, Geometry):
         alpha = scalar(0.0)
         if first_prim >= 0:
             alpha = scalar(1.0)
-        return color, alpha, first_prim, first_s, first_lam, source_t, source_bounces, visits, overflow
+        return color, alpha, first_prim, first_s, first_lam, source_t, source_bounces, visits, overflow, first_u, first_gamma
 
     @wp.func
     def sample_ray(cam: Camera, px: int, py: int, k: int, pixel: int):
@@ -318,6 +325,7 @@ def _make_render(scalar, k, trace, Geometry):
         # structs by value): the loop is the kernel's own, around the pixel's code.
         first = offset + wp.tid() * PIXELS_PER_THREAD
         last = wp.min(first + PIXELS_PER_THREAD, end)
+        thread_visits = int(0)
         for pixel in range(first, last):
             px = pixel % cam.width
             py = pixel / cam.width
@@ -340,12 +348,14 @@ def _make_render(scalar, k, trace, Geometry):
             overflow = int(0)
             sum_color = vec3(scalar(0.0))
             sum_alpha = scalar(0.0)
+            u0 = vec3(scalar(0.0))
+            gamma0 = scalar(1.0)
             for k in range(rays):
                 ray_o = vec4(scalar(0.0))
                 ray_n = n
                 if k > 0:
                     ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
-                c, a, p_k, s_k, lam_k, st_k, sb_k, ray_visits, ray_ovf = trace_path(geo, shd, cam, ray_o, ray_n)
+                c, a, p_k, s_k, lam_k, st_k, sb_k, ray_visits, ray_ovf, u_k, g_k = trace_path(geo, shd, cam, ray_o, ray_n)
                 visits += ray_visits
                 overflow = wp.max(overflow, ray_ovf)
                 if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
@@ -361,6 +371,8 @@ def _make_render(scalar, k, trace, Geometry):
                     lam = lam_k
                     src_t = st_k
                     src_b = sb_k
+                    u0 = u_k
+                    gamma0 = g_k
                 else:
                     sum_color = sum_color + c
                     sum_alpha = sum_alpha + a
@@ -368,7 +380,7 @@ def _make_render(scalar, k, trace, Geometry):
                 inv = scalar(1.0) / scalar(cam.samples)
                 color = sum_color * inv
                 alpha = sum_alpha * inv
-            film.visits[pixel] = visits
+            thread_visits += visits
             if overflow != 0:
                 film.overflow[0] = 1
             bg = shd.background
@@ -411,8 +423,8 @@ def _make_render(scalar, k, trace, Geometry):
 
             # D = (k.u_cam)/(k.u_body), k = (1, -n): -k.u = u_t + n.u_x. With infinite
             # light speed only time dilation is left: the limit is u_cam_t / u_body_t.
-            u, gamma_u = point_velocity(geo, shd, prim, lam, body, event)  # the emitting point's (docs/spec.md §2.1, §2.2)
-            ub = four_velocity(u, gamma_u, dec)
+            # The emitting point's velocity (docs/spec.md §2.1, §2.2): trace_path's at this very event.
+            ub = four_velocity(u0, gamma0, dec)
             uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
             dop = uc[0] / ub[0]
             if cam.finite != 0:
@@ -421,6 +433,7 @@ def _make_render(scalar, k, trace, Geometry):
                 )
             film.doppler[pixel] = dop
             film.object_id[pixel] = body + 1
+        film.visits[first / PIXELS_PER_THREAD] = thread_visits  # tiles start at multiples of PIXELS_PER_THREAD
 
     return Shading, Camera, Film, render_pixels
 

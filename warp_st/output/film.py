@@ -25,11 +25,24 @@ from warp_st.output.channels import (  # noqa: F401 - re-exported for callers of
     relative_f32,
 )
 
-__all__ = ["Image", "read_exr"]
+__all__ = ["Image", "read_exr", "quantize_relative"]
 
 
 #: dtypes an extra (non-SPEC) channel may have: what EXR stores (HALF, FLOAT, UINT).
 _EXTRA_DTYPES = (np.dtype(np.float16), np.dtype(np.float32), np.dtype(np.uint32))
+
+
+def quantize_relative(relative, origin: float) -> np.ndarray:
+    """``quantize_time(float64(relative) + origin, origin)``, bit for bit: the same
+    float64 operations in the same order, on one new buffer (a render's time planes
+    from its relative kernel times, a pass each instead of six arrays)."""
+    out = np.array(relative, dtype=np.float64)
+    origin = np.float64(origin)
+    out += origin  # the absolute time ...
+    out -= origin  # ... relative again (relative_f32, in float64) ...
+    np.copyto(out, out.astype(np.float32))  # ... rounded to float32, as the EXR stores it
+    out += origin  # absolute_time
+    return out
 
 
 def _plane(shape: tuple[int, int], spec: ChannelSpec) -> np.ndarray:

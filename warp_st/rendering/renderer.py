@@ -26,10 +26,11 @@ from warp_st.kernels.layout import PRIMITIVES
 from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
 from warp_st.output.channels import LOW_TIME_CHANNELS, join_time, split_time
 from warp_st.output.cryptomatte import image_layers, resolve_layers
-from warp_st.output.film import Image, quantize_time
-from warp_st.rendering import database_cache
+from warp_st.output.film import Image, quantize_relative
+from warp_st.rendering import database_cache, frame_inputs
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
 from warp_st.rendering.database_build import build_database
+from warp_st.rendering.frame_inputs import camera_key
 from warp_st.rendering.tile_pool import tile_pool
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
@@ -461,25 +462,20 @@ class Renderer:
                 return make_geometry(k, self.static, self.mesh, self.bvh, origin)
         geo = self.database.geometry_for(self.precision.value, tuple(origin.tolist()), make)
         background = self.settings.background or (0.0, 0.0, 0.0)
-        shd = make_shading(
-            k, self.static, self.scene.lights, origin, background, self.max_depth,
-            doppler_color=self.doppler_color, searchlight=self.searchlight, dome=self.scene.dome,
-        )
-        kcam = make_camera(
-            k, cam, self.width, self.height, self._frame_light_speed(cam), samples=self.samples, shutter=self._lab_shutter
-        )
+        light_speed = self._frame_light_speed(cam)
 
+        def make_structs():
+            return (make_shading(k, self.static, self.scene.lights, origin, background, self.max_depth,
+                                 doppler_color=self.doppler_color, searchlight=self.searchlight, dome=self.scene.dome),
+                    make_camera(k, cam, self.width, self.height, light_speed, samples=self.samples,
+                                shutter=self._lab_shutter))
+
+        key = (self.precision.value, camera_key(cam), self.width, self.height, light_speed.value, self.samples,
+               self._lab_shutter, tuple(float(x) for x in background), self.max_depth, self.doppler_color,
+               self.searchlight)
+        shd, kcam = frame_inputs.structs(self.database, key, make_structs)
         n_pix = self.width * self.height
-        film = k.Film()
-        film.rgba = wp.zeros(n_pix, dtype=k.vec4, device="cpu")
-        for name in ("depth", "event_time", "proper_time", "doppler", "source_time"):
-            setattr(film, name, wp.zeros(n_pix, dtype=k.scalar, device="cpu"))
-        film.object_id = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
-        film.bounces = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
-        film.sample_id = wp.zeros(n_pix * self.samples if self.cryptomatte else 0, dtype=wp.int32, device="cpu")
-        film.visits = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
-        film.overflow = wp.zeros(1, dtype=wp.int32, device="cpu")
-
+        film_key, film = frame_inputs.take_film(self.database, k, n_pix, n_pix * self.samples if self.cryptomatte else 0)
         tiles = [(o, min(TILE_PIXELS, n_pix - o)) for o in range(0, n_pix, TILE_PIXELS)]
 
         def launch(tile):
@@ -496,9 +492,9 @@ class Renderer:
         kernel_seconds = time.perf_counter() - t_kernel
         if film.overflow.numpy()[0]:
             raise RuntimeError("BVH traversal stack overflow: the image would be wrong (please report)")
-        image = self._image(film, cam, frame)
-        visits = film.visits.numpy()
-        self.stats.last_mean_visits = float(visits.mean()) if n_pix else 0.0
+        image = self._image(film, cam, frame)  # copies every plane: the film is reused
+        self.stats.last_mean_visits = frame_inputs.film_visits(film, n_pix)
+        frame_inputs.give_back(self.database, film_key, film)
         self.stats.last_kernel_seconds = kernel_seconds
         self.stats.last_frame_seconds = time.perf_counter() - t_start
         self.stats.rays = n_pix
@@ -525,9 +521,9 @@ class Renderer:
                 hi, lows[LOW_TIME_CHANNELS[name]] = split_time(value.astype(np.float64) + origin, origin)
                 times[name] = join_time(hi, lows[LOW_TIME_CHANNELS[name]], origin)
             else:
-                times[name] = quantize_time(value.astype(np.float64) + origin, origin)
+                times[name] = quantize_relative(value, origin)
         event_time, source_time = times["spacetime.eventTime"], times["spacetime.sourceTime"]
-        hit = object_id > 0
+        proper_time = film.proper_time.numpy().reshape(h, w) / np.float32(per_code)
         paths = self.scene.body_paths()
         tables = self.database.shapes if self.primitive == "rigid" else self.mesh
         crypto_planes, layers = image_layers(
@@ -537,7 +533,7 @@ class Renderer:
             rgba=rgba,
             depth=film.depth.numpy().reshape(h, w).astype(np.float32),
             event_time=event_time,
-            proper_time=(film.proper_time.numpy().reshape(h, w) / np.float32(per_code)).astype(np.float32),
+            proper_time=proper_time.astype(np.float32, copy=False),
             doppler=film.doppler.numpy().reshape(h, w).astype(np.float32),
             object_id=object_id,
             source_time=source_time,
@@ -553,7 +549,7 @@ class Renderer:
                 "stage": str(self.scene.source),
                 "camera": str(self.camera_path),
                 "lightSpeed": self._frame_light_speed(cam).value,
-                "coverage": f"{int(hit.sum())}/{hit.size}",
+                "coverage": f"{np.count_nonzero(object_id)}/{object_id.size}",
                 "maxDepth": str(self.max_depth),
                 "samples": str(self.samples),
                 "shutter": repr(self.shutter),
