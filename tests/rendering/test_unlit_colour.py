@@ -70,3 +70,31 @@ def test_doppler_is_the_first_hits_through_mirrors():
     flat = warp_st.render(scene, frame=0, width=64, height=48, max_depth=0)
     assert np.count_nonzero(deep.bounces) > 50
     assert np.array_equal(deep.doppler, flat.doppler, equal_nan=True)
+
+
+def test_unlit_mirrors_reflect_about_the_shading_normal():
+    """Unlit, the kernel skips the shading normal where nothing needs it; mirrors do.
+    Oracle: the same scene with a black distant light (which makes the kernel shade every
+    hit with its normal) when every non-mirror surface is emissive only (diffuse 0): a
+    black light adds exactly 0 to emissive, so both images agree bit for bit. A smooth
+    mirror ball shows a wall of nine coloured cubes behind the camera; reflected about the facet
+    normals instead, the cubes' edges in the ball move."""
+    mirror = sphere_scene().bodies[0]
+    ball = mirror.surfaces[0]
+    ball = dataclasses.replace(ball, material=Material(diffuse=(0.9, 0.9, 0.9), metallic=1.0))
+    bodies = [dataclasses.replace(mirror, surfaces=(ball,))]
+    pts, tris = tessellate.cube(2.5)
+    spots = [(x, y, 4.0) for x in (-3.0, 0.0, 3.0) for y in (-3.0, 0.0, 3.0)]  # a wall of cubes behind the camera
+    for i, spot in enumerate(spots):
+        c = np.asarray(spot, float)
+        colour = tuple(float(x) for x in np.roll([0.9, 0.5, 0.1], i) * (0.3 + 0.07 * i))
+        surf = Surface(f"/Cube{i}", pts + c, tris, Material(diffuse=(0.0, 0.0, 0.0), emissive=colour))
+        bodies.append(Body(f"/Cube{i}", (surf,), c, np.zeros(3), -float(np.linalg.norm(c)), (-math.inf, math.inf)))
+    unlit = dataclasses.replace(sphere_scene(), bodies=tuple(bodies))
+    black = Light("distant", (0.0, 0.0, 0.0), direction=(0.3, 0.5, 0.8), prim_path="/Black")
+    lit = dataclasses.replace(unlit, lights=(black,))
+    kw = dict(frame=0, width=128, height=128, max_depth=2)
+    a, b = warp_st.render(unlit, **kw), warp_st.render(lit, **kw)
+    assert np.count_nonzero(a.rgba[..., :3].sum(axis=-1)) > 40  # the ball (~830 pixels) shows the cubes
+    assert a.rgba.tobytes() == b.rgba.tobytes()
+    assert np.array_equal(a.source_time, b.source_time, equal_nan=True)

@@ -245,7 +245,9 @@ def _make_render(scalar, k, trace, Geometry):
                                                       shd.mat_emissive[mat], shd.mat_metallic[mat])
             body = shd.tri_body[tri]
             u, gamma_u = point_velocity(geo, shd, prim, lam, body, event)  # the emitting point's own velocity
-            normal = shading_normal(geo, shd, prim, lam, n, u)
+            normal = vec3(scalar(0.0))  # needed by lights, the dome and mirrors only (unlit: its loads skipped)
+            if shd.light_count > 0 or shd.sky.present != 0 or metal > scalar(0.0):
+                normal = shading_normal(geo, shd, prim, lam, n, u)
             if depth == 0:
                 first_u = u
                 first_gamma = gamma_u
