@@ -45,3 +45,14 @@ def test_quantize_relative_leaves_its_input(dtype):
     kept = rel.copy()
     quantize_relative(rel, 1e9)
     assert rel.tobytes() == kept.tobytes()
+
+
+@pytest.mark.parametrize("origin", [0.0, 1e9 + 1.0 / 3.0])
+def test_quantize_relative_into_out_with_its_input_as_scratch(origin):
+    """How the renderer calls it: into an Image plane, the film's float32 plane as the
+    rounding's scratch (overwritten)."""
+    rel = relative_times(np.random.default_rng(11))
+    want = quantize_time(rel.astype(np.float64) + origin, origin)
+    out = np.full(rel.shape, 7.0)
+    got = quantize_relative(rel.copy(), origin, out=out, scratch=rel)
+    assert got is out and out.tobytes() == want.tobytes()

@@ -176,3 +176,17 @@ def test_mean_visits_are_the_primary_rays_visits():
     expected = visits.numpy().mean()
     assert expected > 0.2  # a quarter of the rays enter the scene box
     assert r.stats.last_mean_visits == pytest.approx(expected, rel=0.01)
+
+
+def test_image_memory_is_reused_only_once_its_image_is_gone(parade):
+    """A live Image's planes are never handed to the next render; a dropped one's are."""
+    r = Renderer(parade, frames=[0.0, 24.0], width=64, height=36)
+    first = r.render(0.0)
+    kept, address = planes(first), first.rgba.ctypes.data
+    second = r.render(24.0)
+    assert second.rgba.ctypes.data != address and planes(first) == kept
+    del first
+    third = r.render(0.0)
+    assert third.rgba.ctypes.data == address  # the dropped Image's block, with no new pages
+    assert planes(third) == kept
+    assert planes(second) == planes(Renderer(fresh(parade), frames=[0.0, 24.0], width=64, height=36).render(24.0))

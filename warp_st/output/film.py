@@ -32,15 +32,21 @@ __all__ = ["Image", "read_exr", "quantize_relative"]
 _EXTRA_DTYPES = (np.dtype(np.float16), np.dtype(np.float32), np.dtype(np.uint32))
 
 
-def quantize_relative(relative, origin: float) -> np.ndarray:
+def quantize_relative(relative, origin: float, out=None, scratch=None) -> np.ndarray:
     """``quantize_time(float64(relative) + origin, origin)``, bit for bit: the same
-    float64 operations in the same order, on one new buffer (a render's time planes
-    from its relative kernel times, a pass each instead of six arrays)."""
-    out = np.array(relative, dtype=np.float64)
+    float64 operations in the same order, in one buffer (a render's time planes from its
+    relative kernel times, a pass each instead of six arrays). ``out``: the float64
+    result's array (else a new one); ``scratch``: a float32 array of the same shape the
+    rounding may overwrite (it may be ``relative`` itself), else a temporary."""
+    out = np.empty(np.shape(relative), dtype=np.float64) if out is None else out
+    np.copyto(out, relative, casting="unsafe")  # float32 or float64: exact in float64
     origin = np.float64(origin)
     out += origin  # the absolute time ...
     out -= origin  # ... relative again (relative_f32, in float64) ...
-    np.copyto(out, out.astype(np.float32))  # ... rounded to float32, as the EXR stores it
+    rounded = out.astype(np.float32) if scratch is None else scratch
+    if scratch is not None:
+        np.copyto(rounded, out, casting="unsafe")
+    np.copyto(out, rounded)  # ... rounded to float32, as the EXR stores it
     out += origin  # absolute_time
     return out
 

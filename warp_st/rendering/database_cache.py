@@ -79,7 +79,7 @@ class Database:
     ``nbytes``: its memory estimate without a frame's pixels (``rendering.budget``);
     ``stats``: how long its build took (``renderer._BuildStats``); ``static`` its uploaded
     arrays per precision, ``geometry`` its recentred geometries per (precision, camera
-    event); ``frame_structs`` and ``films`` what render calls reuse (``frame_inputs``)."""
+    event); ``frame_structs``, ``films`` and ``image_blocks`` what render calls reuse (``frame_inputs``)."""
 
     tessellation: tuple
     primitive: str
@@ -96,6 +96,7 @@ class Database:
     geometry: OrderedDict = field(default_factory=OrderedDict)
     frame_structs: OrderedDict = field(default_factory=OrderedDict)  # rendering/frame_inputs.py
     films: dict = field(default_factory=dict)  # its idle film (rendering/frame_inputs.py)
+    image_blocks: list = field(default_factory=list)  # the memory of its Images (rendering/frame_inputs.py)
 
     def geometry_for(self, precision: str, origin: tuple, make):
         """The geometry recentred on ``origin`` (made by ``make()`` when missing)."""

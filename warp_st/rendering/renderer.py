@@ -502,42 +502,40 @@ class Renderer:
 
     def _image(self, film, cam: CameraState, frame: float) -> Image:
         h, w = self.height, self.width
-        rgba = film.rgba.numpy().reshape(h, w, 4).astype(np.float32)
+        out = frame_inputs.image_planes(self.database, h, w)  # every plane copied out of the (reused) film
+        np.copyto(out["rgba"], film.rgba.numpy().reshape(h, w, 4), casting="unsafe")
         # The kernels' times are lab times; the image's are time codes (lab / the light speed, §3.1).
         per_code = float(self.scene.light_speed)
         rel = film.event_time.numpy().reshape(h, w)
         origin = float(cam.time) / per_code
-        object_id = film.object_id.numpy().reshape(h, w).astype(np.uint32)
+        object_id = film.object_id.numpy().reshape(h, w)
         if self.object_of is not None:  # an animated body's pieces are one object
-            object_id = np.where(object_id > 0, self.object_of[np.maximum(object_id, 1) - 1] + 1, 0).astype(np.uint32)
+            object_id = np.where(object_id > 0, self.object_of[np.maximum(object_id, 1) - 1] + 1, 0)
+        np.copyto(out["object_id"], object_id, casting="unsafe")
         source_rel = film.source_time.numpy().reshape(h, w)
         if per_code != 1.0:
             rel, source_rel = rel.astype(np.float64) / per_code, source_rel.astype(np.float64) / per_code
         # Absolute times, quantised exactly as the EXR stores them: float32 relative to t_c,
         # and in float64 renders with each one's float32 residual beside it (channels.py).
-        times, lows = {}, {}
+        lows = {}
         for name, value in (("spacetime.eventTime", rel), ("spacetime.sourceTime", source_rel)):
+            plane = out["event_time" if name == "spacetime.eventTime" else "source_time"]
             if self.precision == Precision.FLOAT64:
                 hi, lows[LOW_TIME_CHANNELS[name]] = split_time(value.astype(np.float64) + origin, origin)
-                times[name] = join_time(hi, lows[LOW_TIME_CHANNELS[name]], origin)
-            else:
-                times[name] = quantize_relative(value, origin)
-        event_time, source_time = times["spacetime.eventTime"], times["spacetime.sourceTime"]
-        proper_time = film.proper_time.numpy().reshape(h, w) / np.float32(per_code)
+                np.copyto(plane, join_time(hi, lows[LOW_TIME_CHANNELS[name]], origin))
+            else:  # the film's float32 plane serves as the rounding's scratch (the kernel rewrites it)
+                quantize_relative(value, origin, out=plane, scratch=value if value.dtype == np.float32 else None)
+        np.divide(film.proper_time.numpy().reshape(h, w), np.float32(per_code), out=out["proper_time"],
+                  casting="unsafe")
+        for name in ("depth", "doppler", "bounces"):
+            np.copyto(out[name], getattr(film, name).numpy().reshape(h, w), casting="unsafe")
         paths = self.scene.body_paths()
         tables = self.database.shapes if self.primitive == "rigid" else self.mesh
         crypto_planes, layers = image_layers(
             film.sample_id.numpy().reshape(h, w, self.samples), self.cryptomatte, tables.tri_body, paths,
             tables.tri_material, [m.prim_path for m in tables.materials]) if self.cryptomatte else ({}, {})
         return Image(
-            rgba=rgba,
-            depth=film.depth.numpy().reshape(h, w).astype(np.float32),
-            event_time=event_time,
-            proper_time=proper_time.astype(np.float32, copy=False),
-            doppler=film.doppler.numpy().reshape(h, w).astype(np.float32),
-            object_id=object_id,
-            source_time=source_time,
-            bounces=film.bounces.numpy().reshape(h, w).astype(np.uint32),
+            **out,
             camera_time=origin,
             time_origin=origin,
             frame=frame,
@@ -549,7 +547,7 @@ class Renderer:
                 "stage": str(self.scene.source),
                 "camera": str(self.camera_path),
                 "lightSpeed": self._frame_light_speed(cam).value,
-                "coverage": f"{np.count_nonzero(object_id)}/{object_id.size}",
+                "coverage": f"{np.count_nonzero(out['object_id'])}/{out['object_id'].size}",
                 "maxDepth": str(self.max_depth),
                 "samples": str(self.samples),
                 "shutter": repr(self.shutter),
