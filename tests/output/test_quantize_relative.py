@@ -48,11 +48,13 @@ def test_quantize_relative_leaves_its_input(dtype):
 
 
 @pytest.mark.parametrize("origin", [0.0, 1e9 + 1.0 / 3.0])
-def test_quantize_relative_into_out_with_its_input_as_scratch(origin):
+@pytest.mark.parametrize("scratch", ["input", "other"])
+def test_quantize_relative_into_out_with_a_scratch(origin, scratch):
     """How the renderer calls it: into an Image plane, the film's float32 plane as the
-    rounding's scratch (overwritten)."""
+    rounding's scratch (overwritten); any float32 array of the shape serves."""
     rel = relative_times(np.random.default_rng(11))
     want = quantize_time(rel.astype(np.float64) + origin, origin)
     out = np.full(rel.shape, 7.0)
-    got = quantize_relative(rel.copy(), origin, out=out, scratch=rel)
+    space = rel if scratch == "input" else np.full(rel.shape, 7.0, np.float32)
+    got = quantize_relative(rel, origin, out=out, scratch=space)
     assert got is out and out.tobytes() == want.tobytes()
