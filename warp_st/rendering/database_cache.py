@@ -40,6 +40,8 @@ triangle when 16 bodies share a shape, independent of speeds, lifetimes and fram
 ``database_bytes``) plus its last MAX_GEOMETRIES recentred geometries (an
 extrusion's: float32 copies of every vertex, primitive event and node box; a rigid
 one's: a few vectors per motion segment).
+Render calls keep an idle film, up to two blocks of Image planes and a few struct pairs
+on each database (``rendering.frame_inputs``; docs/design/render-call.md).
 docs/design/database-cache.md says the same for users.
 """
 from __future__ import annotations
