@@ -333,7 +333,7 @@ class Renderer:
             cache.use(db)
         tc = time.perf_counter()
         self.kernels = get_kernels(self.precision.value, self.primitive)
-        wp.load_module(self.kernels.render_pixels.module, device="cpu")
+        wp.load_module(self.kernels.pixels(bool(self.scene.lights)).module, device="cpu")
         self.stats.compile_seconds = time.perf_counter() - tc
         t3 = time.perf_counter()
         if self.precision.value not in db.static:
@@ -478,8 +478,10 @@ class Renderer:
         film_key, film = frame_inputs.take_film(self.database, k, n_pix, n_pix * self.samples if self.cryptomatte else 0)
         tiles = [(o, min(TILE_PIXELS, n_pix - o)) for o in range(0, n_pix, TILE_PIXELS)]
 
+        kernel = k.pixels(bool(self.scene.lights))  # without lights: the kernel that casts no shadow rays
+
         def launch(tile):
-            wp.launch(k.render_pixels, dim=-(-tile[1] // PIXELS_PER_THREAD), device="cpu",
+            wp.launch(kernel, dim=-(-tile[1] // PIXELS_PER_THREAD), device="cpu",
                       inputs=[geo, shd, kcam, film, tile[0], tile[0] + tile[1]])
 
         t_kernel = time.perf_counter()
