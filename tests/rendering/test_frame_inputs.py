@@ -190,3 +190,16 @@ def test_image_memory_is_reused_only_once_its_image_is_gone(parade):
     assert third.rgba.ctypes.data == address  # the dropped Image's block, with no new pages
     assert planes(third) == kept
     assert planes(second) == planes(Renderer(fresh(parade), frames=[0.0, 24.0], width=64, height=36).render(24.0))
+
+
+def test_only_the_last_database_keeps_idle_buffers(parade):
+    """Two databases of one scene (the light-speed modes see other windows): after a
+    render from the second, the first keeps no film and no Image block."""
+    first = Renderer(parade, frames=[0.0], width=64, height=36)
+    first.render(0.0)
+    assert first.database.films and first.database.image_blocks
+    second = Renderer(parade, frames=[0.0], width=64, height=36, light_speed="infinite")
+    assert second.database is not first.database
+    second.render(0.0)
+    assert not first.database.films and not first.database.image_blocks
+    assert second.database.films and second.database.image_blocks

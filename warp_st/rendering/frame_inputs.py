@@ -23,6 +23,9 @@ keep must live where the database lives: on the scene's cached
   block), so an Image never shares memory with a later one; reusing the pages of a
   dropped Image saves the ~2,500 page faults (~3 ms) a fresh 512 x 512 Image costs.
   An Image kept by the caller keeps its block; the others are freed with the database.
+
+Idle memory: only the database that served a scene's last render keeps a film and
+blocks (``keep_only``): per scene about 48 + 2 x 52 bytes a pixel of its last frame size.
 """
 from __future__ import annotations
 
@@ -37,7 +40,7 @@ from warp_st.core.scene import CameraState
 from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
 
 __all__ = ["MAX_STRUCTS", "MAX_BLOCKS", "camera_key", "structs", "take_film", "give_back", "film_visits",
-           "image_planes"]
+           "image_planes", "keep_only"]
 
 #: Shading / Camera struct pairs kept per database (a sequence's frames alternate with a
 #: warm frame in the benchmarks; a sweep of options a few).
@@ -133,3 +136,13 @@ def image_planes(db, height: int, width: int) -> dict:
             planes[name] = block[start:start + size].view(dtype).reshape(shape)
             start += size
     return planes
+
+
+def keep_only(databases, db) -> None:
+    """Free the idle films and Image blocks of every database in ``databases`` but ``db``
+    (a scene's, when ``db`` serves its render): a scene holds one frame's buffers."""
+    with _lock:
+        for other in databases:
+            if other is not db:
+                other.films.clear()
+                other.image_blocks.clear()  # blocks of live Images stay with their Images

@@ -475,6 +475,7 @@ class Renderer:
                self.searchlight)
         shd, kcam = frame_inputs.structs(self.database, key, make_structs)
         n_pix = self.width * self.height
+        frame_inputs.keep_only(database_cache.for_scene(self.scene).databases, self.database)
         film_key, film = frame_inputs.take_film(self.database, k, n_pix, n_pix * self.samples if self.cryptomatte else 0)
         tiles = [(o, min(TILE_PIXELS, n_pix - o)) for o in range(0, n_pix, TILE_PIXELS)]
 
