@@ -40,9 +40,20 @@ class Kernels:
         else:
             Geometry, trace, prepare, leaf = make_trace(scalar, primitive)
         self.Geometry = Geometry
-        self.Shading, self.Camera, self.Film, self.render_pixels = _make_render(scalar, self, trace, Geometry)
+        self.Shading, self.Camera, self.Film, self.render_pixels, self._make_unlit = _make_render(
+            scalar, self, trace, Geometry)
+        self._unlit = None
         self._probe_parts = (scalar, self.vec3, self.vec4, Geometry, trace, prepare, leaf)
         self._probe = None
+
+    def pixels(self, lit: bool):
+        """The pixel kernel: ``render_pixels`` for a scene with lights, else its twin without
+        shadow rays (built on first use; the same pixels where no light is)."""
+        if lit:
+            return self.render_pixels
+        if self._unlit is None:
+            self._unlit = self._make_unlit()
+        return self._unlit
 
     @property
     def cast_rays(self):
@@ -108,7 +119,7 @@ def _make_render(scalar, k, trace, Geometry):
         source_time: wp.array(dtype=scalar)
         bounces: wp.array(dtype=wp.int32)
         sample_id: wp.array(dtype=wp.int32)  # Cryptomatte: 1 + the triangle each sample hits first, 0: none; empty: off
-        visits: wp.array(dtype=wp.int32)
+        visits: wp.array(dtype=wp.int32)  # node visits per kernel thread (its PIXELS_PER_THREAD pixels), not per pixel
         overflow: wp.array(dtype=wp.int32)
 
     @wp.func
@@ -181,119 +192,6 @@ def _make_render(scalar, k, trace, Geometry):
         return vec4(wp.where(finite != 0, scalar(-1.0), scalar(0.0)), n[0], n[1], n[2])
 
     @wp.func
-    def trace_path(geo: Geometry, shd: Shading, cam: Camera, origin: vec4, n0: vec3):
-        """Radiance along one camera ray with mirror bounces (a loop: kernels cannot recurse).
-
-        A surface shows (1 - metallic) x its own shading + metallic x diffuseColor x the
-        radiance arriving along the reflected null ray (docs/spec.md §2; issue: light transport),
-        for at most ``max_depth`` reflections. Returns (colour, alpha, first prim, its
-        lookback s, barycentrics, source event time, bounces before it, visits,
-        overflow). The source is the last hit that is not a perfect mirror, or the
-        hit where the path ends; NaN when only mirrors led to the background.
-
-        With Doppler colour / searchlight on, each contribution is transformed by its
-        own D = (k.u_cam)/(k.u_source): k is followed through every reflection, whose
-        moving mirror changes the photon's lab energy by (1 + f N.v) (see reflect_null).
-        """
-        finite = cam.finite
-        uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
-        cam_term = uc[0]
-        if finite != 0:
-            cam_term = uc[0] + n0[0] * uc[1] + n0[1] * uc[2] + n0[2] * uc[3]
-        energy = scalar(1.0)  # photon lab energy at the current segment / at the camera
-        color = vec3(scalar(0.0))
-        weight = vec3(scalar(1.0))
-        o = origin
-        n = n0
-        skip = int(-1)
-        path = scalar(0.0)
-        first_prim = int(-1)
-        first_s = scalar(0.0)
-        first_lam = vec4(scalar(0.0))
-        source_t = scalar(wp.nan)
-        source_bounces = int(0)
-        bounces = int(0)
-        visits = int(0)
-        overflow = int(0)
-        depth = int(0)
-        while depth <= shd.max_depth:
-            prim, s, lam, vis, ovf = trace(geo, o, n, finite, self_eps(path), scalar(FAR), skip, -1, scalar(0.0), 0)
-            visits += vis
-            overflow = wp.max(overflow, ovf)
-            if prim < 0:
-                # The dome (at rest in the lab, D = cam_term / energy) is seen by every
-                # escaping ray; without one the background only after a mirror (the film
-                # composites it behind primary misses).
-                if depth > 0 or shd.sky.present != 0:
-                    bg = shd.background
-                    if shd.sky.present != 0:
-                        bg = sky_radiance(shd.sky, n)
-                    bg = doppler_transform(bg, cam_term / energy, shd.doppler_table, shd.color_shift, shd.searchlight)
-                    color = color + wp.cw_mul(weight, bg)
-                break
-            event = o + s * null_dir(n, finite)
-            path = path + s
-            if depth == 0:
-                first_prim = prim
-                first_s = s
-                first_lam = lam
-            tri = prim_triangle(geo, prim)
-            mat = shd.tri_material[tri]
-            diffuse, emissive, metal = surface_inputs(shd.tex, prim, tri, lam, mat, shd.mat_diffuse[mat],
-                                                      shd.mat_emissive[mat], shd.mat_metallic[mat])
-            body = shd.tri_body[tri]
-            u, gamma_u = point_velocity(geo, shd, prim, lam, body, event)  # the emitting point's own velocity
-            normal = shading_normal(geo, shd, prim, lam, n, u)
-            if metal < scalar(1.0):
-                local = shade(geo, shd, finite, prim, path, event, normal, diffuse, emissive, u, gamma_u)
-                if shd.sky.present != 0:  # the dome's diffuse light (no shadowing), instead of the unlit albedo
-                    lit = wp.cw_mul(diffuse, sky_irradiance(shd.sky, normal)) * scalar(INV_PI)
-                    if shd.light_count == 0:
-                        local = emissive + lit
-                    else:
-                        local = local + lit
-                ub = four_velocity(u, gamma_u, shd.body_decoupled[body])
-                body_term = ub[0]
-                if finite != 0:
-                    body_term = ub[0] + n[0] * ub[1] + n[1] * ub[2] + n[2] * ub[3]
-                local = doppler_transform(local, cam_term / (energy * body_term), shd.doppler_table, shd.color_shift, shd.searchlight)
-                color = color + wp.cw_mul(weight, local) * (scalar(1.0) - metal)
-                source_t = event[0]
-                source_bounces = bounces
-            if metal <= scalar(0.0) or depth == shd.max_depth:
-                if metal >= scalar(1.0):
-                    source_t = event[0]
-                    source_bounces = bounces
-                break
-            v_mirror = u
-            ok, n_out = reflect_null(n, normal, v_mirror, finite)
-            # An interpolated normal can send a grazing reflection into the facet's own
-            # plane (it would re-enter a convex mirror): reflect about the facet then.
-            facet = shd.tri_normal[tri]
-            if lam[3] > scalar(ANALYTIC_TEST):  # an analytic hit: its normal is the surface's
-                facet = normal
-            if wp.dot(facet, n + v_mirror) > scalar(0.0):
-                facet = -facet
-            if wp.dot(facet, n_out + v_mirror) <= scalar(0.0):
-                normal = facet
-                ok, n_out = reflect_null(n, normal, v_mirror, finite)
-            if ok == 0:
-                break
-            if finite != 0:
-                nv = wp.dot(normal, v_mirror)
-                energy = energy * (scalar(1.0) + scalar(2.0) * (wp.dot(n, normal) + nv) * nv / (scalar(1.0) - nv * nv))
-            weight = wp.cw_mul(weight, diffuse) * metal
-            o = event
-            n = n_out
-            skip = tri
-            bounces += 1
-            depth += 1
-        alpha = scalar(0.0)
-        if first_prim >= 0:
-            alpha = scalar(1.0)
-        return color, alpha, first_prim, first_s, first_lam, source_t, source_bounces, visits, overflow
-
-    @wp.func
     def sample_ray(cam: Camera, px: int, py: int, k: int, pixel: int):
         """Sample k of a pixel: stratified jitter in the pixel and in camera time.
 
@@ -310,119 +208,261 @@ def _make_render(scalar, k, trace, Geometry):
         o = vec4(tau, tau * cam.velocity[0], tau * cam.velocity[1], tau * cam.velocity[2])
         return o, n
 
-    @wp.kernel(enable_backward=False, module="unique")
-    def render_pixels(geo: Geometry, shd: Shading, cam: Camera, film: Film, offset: int, end: int):
-        # Pixels offset + tid * PIXELS_PER_THREAD onwards, up to ``end`` (exclusive), in
-        # turn: a CPU launch copies the kernel's struct arguments (kilobytes) per
-        # thread, and so does every call that takes them, inlined or not (Warp passes
-        # structs by value): the loop is the kernel's own, around the pixel's code.
-        first = offset + wp.tid() * PIXELS_PER_THREAD
-        last = wp.min(first + PIXELS_PER_THREAD, end)
-        for pixel in range(first, last):
-            px = pixel % cam.width
-            py = pixel / cam.width
-            # Ray 0 is the AOV ray: the pixel centre at the frame's camera time (also the
-            # beauty when there is one sample); rays 1..samples are the jittered samples.
-            # One call site of trace_path, so the compiler inlines it (with a second one it
-            # became an out-of-line call copying the Geometry and Shading structs per ray).
-            n = pixel_direction(cam, px, py)
-            rays = int(1)
-            if cam.samples > 1:
-                rays = 1 + cam.samples
+    @wp.func
+    def no_lights(geo: Geometry, shd: Shading, finite: int, prim: int, path: scalar, event: vec4, normal: vec3,
+                  diffuse: vec3, emissive: vec3, u: vec3, gamma_u: scalar) -> vec3:
+        """What ``shade`` returns without lights: the unlit kernel's stand-in, which casts no shadow rays."""
+        return emissive + diffuse
+
+    def make_pixels(shade_hit, name=None):
+        """The pixel kernel shading lit hits with ``shade_hit``: ``shade``, or for scenes
+        without lights ``no_lights`` (the kernel never calls it there). Without ``shade`` the
+        kernel calls ``trace`` from one site, so the compiler inlines it and no ray copies the
+        Geometry struct (Warp passes structs by value): the same pixels, ~15 % faster."""
+
+        @wp.func
+        def trace_path(geo: Geometry, shd: Shading, cam: Camera, origin: vec4, n0: vec3):
+            """Radiance along one camera ray with mirror bounces (a loop: kernels cannot recurse).
+
+            A surface shows (1 - metallic) x its own shading + metallic x diffuseColor x the
+            radiance arriving along the reflected null ray (docs/spec.md §2; issue: light transport),
+            for at most ``max_depth`` reflections. Returns (colour, alpha, first prim, its
+            lookback s, barycentrics, source event time, bounces before it, visits,
+            overflow). The source is the last hit that is not a perfect mirror, or the
+            hit where the path ends; NaN when only mirrors led to the background.
+
+            With Doppler colour / searchlight on, each contribution is transformed by its
+            own D = (k.u_cam)/(k.u_source): k is followed through every reflection, whose
+            moving mirror changes the photon's lab energy by (1 + f N.v) (see reflect_null).
+            """
+            finite = cam.finite
+            uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
+            cam_term = uc[0]
+            if finite != 0:
+                cam_term = uc[0] + n0[0] * uc[1] + n0[1] * uc[2] + n0[2] * uc[3]
+            energy = scalar(1.0)  # photon lab energy at the current segment / at the camera
             color = vec3(scalar(0.0))
-            alpha = scalar(0.0)
-            prim = int(-1)
-            s = scalar(0.0)
-            lam = vec4(scalar(0.0))
-            src_t = scalar(0.0)
-            src_b = int(0)
+            weight = vec3(scalar(1.0))
+            o = origin
+            n = n0
+            skip = int(-1)
+            path = scalar(0.0)
+            first_prim = int(-1)
+            first_s = scalar(0.0)
+            first_lam = vec4(scalar(0.0))
+            first_u = vec3(scalar(0.0))
+            first_gamma = scalar(1.0)
+            source_t = scalar(wp.nan)
+            source_bounces = int(0)
+            bounces = int(0)
             visits = int(0)
             overflow = int(0)
-            sum_color = vec3(scalar(0.0))
-            sum_alpha = scalar(0.0)
-            for k in range(rays):
-                ray_o = vec4(scalar(0.0))
-                ray_n = n
-                if k > 0:
-                    ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
-                c, a, p_k, s_k, lam_k, st_k, sb_k, ray_visits, ray_ovf = trace_path(geo, shd, cam, ray_o, ray_n)
-                visits += ray_visits
-                overflow = wp.max(overflow, ray_ovf)
-                if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
-                    hit_id = int(0)
-                    if p_k >= 0:
-                        hit_id = prim_triangle(geo, p_k) + 1
-                    film.sample_id[pixel * cam.samples + wp.max(k - 1, 0)] = hit_id
-                if k == 0:
-                    color = c
-                    alpha = a
-                    prim = p_k
-                    s = s_k
-                    lam = lam_k
-                    src_t = st_k
-                    src_b = sb_k
-                else:
-                    sum_color = sum_color + c
-                    sum_alpha = sum_alpha + a
-            if cam.samples > 1:
-                inv = scalar(1.0) / scalar(cam.samples)
-                color = sum_color * inv
-                alpha = sum_alpha * inv
-            film.visits[pixel] = visits
-            if overflow != 0:
-                film.overflow[0] = 1
-            bg = shd.background
-            if shd.sky.present != 0:
-                bg = vec3(scalar(0.0))  # the sky is in the colour already
-            film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
-            if prim < 0:
-                film.depth[pixel] = scalar(wp.inf)
-                film.event_time[pixel] = scalar(wp.nan)
-                film.proper_time[pixel] = scalar(wp.nan)
-                film.doppler[pixel] = scalar(wp.nan)
-                if shd.sky.present != 0:  # the dome's D = (k.u_cam)/(k.u_lab), k = (1, -n)
-                    uc0 = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
-                    film.doppler[pixel] = uc0[0]
-                    if cam.finite != 0:
-                        film.doppler[pixel] = uc0[0] + n[0] * uc0[1] + n[1] * uc0[2] + n[2] * uc0[3]
-                film.object_id[pixel] = 0
-                film.source_time[pixel] = scalar(wp.nan)
-                film.bounces[pixel] = 0
-                continue
-            dt = scalar(0.0)
-            if cam.finite != 0:
-                dt = -s
-            event = vec4(dt, s * n[0], s * n[1], s * n[2])
-            film.depth[pixel] = rest_distance(cam, dt, vec3(event[1], event[2], event[3]))
-            film.event_time[pixel] = event[0]
-            film.source_time[pixel] = src_t
-            film.bounces[pixel] = src_b
+            depth = int(0)
+            while depth <= shd.max_depth:
+                prim, s, lam, vis, ovf = trace(geo, o, n, finite, self_eps(path), scalar(FAR), skip, -1, scalar(0.0), 0)
+                visits += vis
+                overflow = wp.max(overflow, ovf)
+                if prim < 0:
+                    # The dome (at rest in the lab, D = cam_term / energy) is seen by every
+                    # escaping ray; without one the background only after a mirror (the film
+                    # composites it behind primary misses).
+                    if depth > 0 or shd.sky.present != 0:
+                        bg = shd.background
+                        if shd.sky.present != 0:
+                            bg = sky_radiance(shd.sky, n)
+                        bg = doppler_transform(bg, cam_term / energy, shd.doppler_table, shd.color_shift, shd.searchlight)
+                        color = color + wp.cw_mul(weight, bg)
+                    break
+                event = o + s * null_dir(n, finite)
+                path = path + s
+                if depth == 0:
+                    first_prim = prim
+                    first_s = s
+                    first_lam = lam
+                tri = prim_triangle(geo, prim)
+                mat = shd.tri_material[tri]
+                diffuse, emissive, metal = surface_inputs(shd.tex, prim, tri, lam, mat, shd.mat_diffuse[mat],
+                                                          shd.mat_emissive[mat], shd.mat_metallic[mat])
+                body = shd.tri_body[tri]
+                u, gamma_u = point_velocity(geo, shd, prim, lam, body, event)  # the emitting point's own velocity
+                normal = vec3(scalar(0.0))  # needed by lights, the dome and mirrors only (unlit: its loads skipped)
+                if shd.light_count > 0 or shd.sky.present != 0 or metal > scalar(0.0):
+                    normal = shading_normal(geo, shd, prim, lam, n, u)
+                if depth == 0:
+                    first_u = u
+                    first_gamma = gamma_u
+                if metal < scalar(1.0):
+                    local = emissive + diffuse  # unlit: what shade() returns without lights, without its call
+                    if shd.light_count > 0:
+                        local = shade_hit(geo, shd, finite, prim, path, event, normal, diffuse, emissive, u, gamma_u)
+                    if shd.sky.present != 0:  # the dome's diffuse light (no shadowing), instead of the unlit albedo
+                        lit = wp.cw_mul(diffuse, sky_irradiance(shd.sky, normal)) * scalar(INV_PI)
+                        if shd.light_count == 0:
+                            local = emissive + lit
+                        else:
+                            local = local + lit
+                    ub = four_velocity(u, gamma_u, shd.body_decoupled[body])
+                    body_term = ub[0]
+                    if finite != 0:
+                        body_term = ub[0] + n[0] * ub[1] + n[1] * ub[2] + n[2] * ub[3]
+                    local = doppler_transform(local, cam_term / (energy * body_term), shd.doppler_table, shd.color_shift, shd.searchlight)
+                    color = color + wp.cw_mul(weight, local) * (scalar(1.0) - metal)
+                    source_t = event[0]
+                    source_bounces = bounces
+                if metal <= scalar(0.0) or depth == shd.max_depth:
+                    if metal >= scalar(1.0):
+                        source_t = event[0]
+                        source_bounces = bounces
+                    break
+                v_mirror = u
+                ok, n_out = reflect_null(n, normal, v_mirror, finite)
+                # An interpolated normal can send a grazing reflection into the facet's own
+                # plane (it would re-enter a convex mirror): reflect about the facet then.
+                facet = shd.tri_normal[tri]
+                if lam[3] > scalar(ANALYTIC_TEST):  # an analytic hit: its normal is the surface's
+                    facet = normal
+                if wp.dot(facet, n + v_mirror) > scalar(0.0):
+                    facet = -facet
+                if wp.dot(facet, n_out + v_mirror) <= scalar(0.0):
+                    normal = facet
+                    ok, n_out = reflect_null(n, normal, v_mirror, finite)
+                if ok == 0:
+                    break
+                if finite != 0:
+                    nv = wp.dot(normal, v_mirror)
+                    energy = energy * (scalar(1.0) + scalar(2.0) * (wp.dot(n, normal) + nv) * nv / (scalar(1.0) - nv * nv))
+                weight = wp.cw_mul(weight, diffuse) * metal
+                o = event
+                n = n_out
+                skip = tri
+                bounces += 1
+                depth += 1
+            alpha = scalar(0.0)
+            if first_prim >= 0:
+                alpha = scalar(1.0)
+            return color, alpha, first_prim, first_s, first_lam, source_t, source_bounces, visits, overflow, first_u, first_gamma
 
-            body = shd.tri_body[prim_triangle(geo, prim)]
-            bo = shd.body_origin[body]
-            v = shd.body_velocity[body]
-            dec = shd.body_decoupled[body]
-            rel_t = event[0] - bo[0]
-            tau = rel_t
-            if dec == 0:
-                rel_x = vec3(event[1] - bo[1], event[2] - bo[2], event[3] - bo[3])
-                tau = shd.body_gamma[body] * (rel_t - wp.dot(v, rel_x))
-            film.proper_time[pixel] = tau
+        @wp.kernel(enable_backward=False, module="unique", name=name)
+        def render_pixels(geo: Geometry, shd: Shading, cam: Camera, film: Film, offset: int, end: int):
+            # Pixels offset + tid * PIXELS_PER_THREAD onwards, up to ``end`` (exclusive), in
+            # turn: a CPU launch copies the kernel's struct arguments (kilobytes) per
+            # thread, and so does every call that takes them, inlined or not (Warp passes
+            # structs by value): the loop is the kernel's own, around the pixel's code.
+            first = offset + wp.tid() * PIXELS_PER_THREAD
+            last = wp.min(first + PIXELS_PER_THREAD, end)
+            thread_visits = int(0)
+            for pixel in range(first, last):
+                px = pixel % cam.width
+                py = pixel / cam.width
+                # Ray 0 is the AOV ray: the pixel centre at the frame's camera time (also the
+                # beauty when there is one sample); rays 1..samples are the jittered samples.
+                # One call site of trace_path, so the compiler inlines it (with a second one it
+                # became an out-of-line call copying the Geometry and Shading structs per ray).
+                n = pixel_direction(cam, px, py)
+                rays = int(1)
+                if cam.samples > 1:
+                    rays = 1 + cam.samples
+                color = vec3(scalar(0.0))
+                alpha = scalar(0.0)
+                prim = int(-1)
+                s = scalar(0.0)
+                lam = vec4(scalar(0.0))
+                src_t = scalar(0.0)
+                src_b = int(0)
+                visits = int(0)
+                overflow = int(0)
+                sum_color = vec3(scalar(0.0))
+                sum_alpha = scalar(0.0)
+                u0 = vec3(scalar(0.0))
+                gamma0 = scalar(1.0)
+                for k in range(rays):
+                    ray_o = vec4(scalar(0.0))
+                    ray_n = n
+                    if k > 0:
+                        ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
+                    c, a, p_k, s_k, lam_k, st_k, sb_k, ray_visits, ray_ovf, u_k, g_k = trace_path(geo, shd, cam, ray_o, ray_n)
+                    visits += ray_visits
+                    overflow = wp.max(overflow, ray_ovf)
+                    if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
+                        hit_id = int(0)
+                        if p_k >= 0:
+                            hit_id = prim_triangle(geo, p_k) + 1
+                        film.sample_id[pixel * cam.samples + wp.max(k - 1, 0)] = hit_id
+                    if k == 0:
+                        color = c
+                        alpha = a
+                        prim = p_k
+                        s = s_k
+                        lam = lam_k
+                        src_t = st_k
+                        src_b = sb_k
+                        u0 = u_k
+                        gamma0 = g_k
+                    else:
+                        sum_color = sum_color + c
+                        sum_alpha = sum_alpha + a
+                if cam.samples > 1:
+                    inv = scalar(1.0) / scalar(cam.samples)
+                    color = sum_color * inv
+                    alpha = sum_alpha * inv
+                thread_visits += visits
+                if overflow != 0:
+                    film.overflow[0] = 1
+                bg = shd.background
+                if shd.sky.present != 0:
+                    bg = vec3(scalar(0.0))  # the sky is in the colour already
+                film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
+                if prim < 0:
+                    film.depth[pixel] = scalar(wp.inf)
+                    film.event_time[pixel] = scalar(wp.nan)
+                    film.proper_time[pixel] = scalar(wp.nan)
+                    film.doppler[pixel] = scalar(wp.nan)
+                    if shd.sky.present != 0:  # the dome's D = (k.u_cam)/(k.u_lab), k = (1, -n)
+                        uc0 = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
+                        film.doppler[pixel] = uc0[0]
+                        if cam.finite != 0:
+                            film.doppler[pixel] = uc0[0] + n[0] * uc0[1] + n[1] * uc0[2] + n[2] * uc0[3]
+                    film.object_id[pixel] = 0
+                    film.source_time[pixel] = scalar(wp.nan)
+                    film.bounces[pixel] = 0
+                    continue
+                dt = scalar(0.0)
+                if cam.finite != 0:
+                    dt = -s
+                event = vec4(dt, s * n[0], s * n[1], s * n[2])
+                film.depth[pixel] = rest_distance(cam, dt, vec3(event[1], event[2], event[3]))
+                film.event_time[pixel] = event[0]
+                film.source_time[pixel] = src_t
+                film.bounces[pixel] = src_b
 
-            # D = (k.u_cam)/(k.u_body), k = (1, -n): -k.u = u_t + n.u_x. With infinite
-            # light speed only time dilation is left: the limit is u_cam_t / u_body_t.
-            u, gamma_u = point_velocity(geo, shd, prim, lam, body, event)  # the emitting point's (docs/spec.md §2.1, §2.2)
-            ub = four_velocity(u, gamma_u, dec)
-            uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
-            dop = uc[0] / ub[0]
-            if cam.finite != 0:
-                dop = (uc[0] + n[0] * uc[1] + n[1] * uc[2] + n[2] * uc[3]) / (
-                    ub[0] + n[0] * ub[1] + n[1] * ub[2] + n[2] * ub[3]
-                )
-            film.doppler[pixel] = dop
-            film.object_id[pixel] = body + 1
+                body = shd.tri_body[prim_triangle(geo, prim)]
+                bo = shd.body_origin[body]
+                v = shd.body_velocity[body]
+                dec = shd.body_decoupled[body]
+                rel_t = event[0] - bo[0]
+                tau = rel_t
+                if dec == 0:
+                    rel_x = vec3(event[1] - bo[1], event[2] - bo[2], event[3] - bo[3])
+                    tau = shd.body_gamma[body] * (rel_t - wp.dot(v, rel_x))
+                film.proper_time[pixel] = tau
 
-    return Shading, Camera, Film, render_pixels
+                # D = (k.u_cam)/(k.u_body), k = (1, -n): -k.u = u_t + n.u_x. With infinite
+                # light speed only time dilation is left: the limit is u_cam_t / u_body_t.
+                # The emitting point's velocity (docs/spec.md §2.1, §2.2): trace_path's at this very event.
+                ub = four_velocity(u0, gamma0, dec)
+                uc = four_velocity(cam.velocity, cam.gamma, cam.decoupled)
+                dop = uc[0] / ub[0]
+                if cam.finite != 0:
+                    dop = (uc[0] + n[0] * uc[1] + n[1] * uc[2] + n[2] * uc[3]) / (
+                        ub[0] + n[0] * ub[1] + n[1] * ub[2] + n[2] * ub[3]
+                    )
+                film.doppler[pixel] = dop
+                film.object_id[pixel] = body + 1
+            film.visits[first / PIXELS_PER_THREAD] = thread_visits  # tiles start at multiples of PIXELS_PER_THREAD
+
+        return render_pixels
+
+    return Shading, Camera, Film, make_pixels(shade), lambda: make_pixels(no_lights, "render_pixels_unlit")
 
 
 @functools.lru_cache(maxsize=None)

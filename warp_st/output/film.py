@@ -25,11 +25,30 @@ from warp_st.output.channels import (  # noqa: F401 - re-exported for callers of
     relative_f32,
 )
 
-__all__ = ["Image", "read_exr"]
+__all__ = ["Image", "read_exr", "quantize_relative"]
 
 
 #: dtypes an extra (non-SPEC) channel may have: what EXR stores (HALF, FLOAT, UINT).
 _EXTRA_DTYPES = (np.dtype(np.float16), np.dtype(np.float32), np.dtype(np.uint32))
+
+
+def quantize_relative(relative, origin: float, out=None, scratch=None) -> np.ndarray:
+    """``quantize_time(float64(relative) + origin, origin)``, bit for bit: the same
+    float64 operations in the same order, in one buffer (a render's time planes from its
+    relative kernel times, a pass each instead of six arrays). ``out``: the float64
+    result's array (else a new one); ``scratch``: a float32 array of the same shape the
+    rounding may overwrite (it may be ``relative`` itself), else a temporary."""
+    out = np.empty(np.shape(relative), dtype=np.float64) if out is None else out
+    np.copyto(out, relative, casting="unsafe")  # float32 or float64: exact in float64
+    origin = np.float64(origin)
+    out += origin  # the absolute time ...
+    out -= origin  # ... relative again (relative_f32, in float64) ...
+    rounded = out.astype(np.float32) if scratch is None else scratch
+    if scratch is not None:
+        np.copyto(rounded, out, casting="unsafe")
+    np.copyto(out, rounded)  # ... rounded to float32, as the EXR stores it
+    out += origin  # absolute_time
+    return out
 
 
 def _plane(shape: tuple[int, int], spec: ChannelSpec) -> np.ndarray:

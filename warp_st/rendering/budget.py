@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from warp_st.core.limits import MAX_BOUNCES, MAX_PIXELS, MAX_SAMPLES, MAX_WINDOW, format_size
-from warp_st.core.scene import Scene, SceneError, surface_triangles
+from warp_st.core.scene import Scene, SceneError, surface_keep
 from warp_st.spacetime.extrude import body_slices
 from warp_st.spacetime.visibility import intervals, span
 
@@ -115,7 +115,7 @@ def count_database(scene: Scene, windows, *, fine: bool = True, fraction: float 
         if parts and body.surfaces:
             segments = sum(len(body_slices(body, part, fine=fine, fraction=fraction, view=view)) - 1 for part in parts)
             for surf in body.surfaces:
-                n_tri = len(surface_triangles(surf))
+                n_tri = triangle_count(surf)
                 if n_tri:
                     n_body += 3 * n_tri * segments
                     verts += (segments + len(parts)) * len(surf.points)
@@ -162,6 +162,11 @@ def _check_windows(scene: Scene, windows, max_depth: int) -> None:
                             f"beyond {MAX_WINDOW:g} (positions, speeds or times too large)")
 
 
+def triangle_count(surf) -> int:
+    """``len(surface_triangles(surf))`` without building the triangles (the count only)."""
+    return int(np.count_nonzero(surface_keep(surf)))
+
+
 def check_limits(scene: Scene, windows, *, width: int, height: int, samples: int = 1, max_depth: int = 0) -> None:
     """Refuse (SceneError) a render beyond the kernels' ranges: samples, bounces, pixels,
     and visible windows whose coordinates pass MAX_WINDOW. Cheap: no counting."""
@@ -189,8 +194,9 @@ def check_resources(scene: Scene, windows, *, width: int, height: int, samples: 
     pixels = int(width) * int(height)
     if rigid:
         _check_finite(scene, windows)
-        tris = [sum(len(surface_triangles(s)) for s in b.surfaces) for b in scene.bodies]
-        verts = sum(len(s.points) for b in scene.bodies for s in b.surfaces if len(surface_triangles(s)))
+        counts = [[triangle_count(s) for s in b.surfaces] for b in scene.bodies]
+        tris = [sum(c) for c in counts]
+        verts = sum(len(s.points) for b, c in zip(scene.bodies, counts) for s, n in zip(b.surfaces, c) if n)
         estimate, what, per_body = estimate_rigid_bytes(sum(tris), verts, pixels), f"{sum(tris):,} triangles", tris
         unit = "triangles"
     else:

@@ -40,6 +40,8 @@ triangle when 16 bodies share a shape, independent of speeds, lifetimes and fram
 ``database_bytes``) plus its last MAX_GEOMETRIES recentred geometries (an
 extrusion's: float32 copies of every vertex, primitive event and node box; a rigid
 one's: a few vectors per motion segment).
+Render calls keep an idle film, up to two blocks of Image planes and a few struct pairs
+on each database (``rendering.frame_inputs``; docs/design/render-call.md).
 docs/design/database-cache.md says the same for users.
 """
 from __future__ import annotations
@@ -79,7 +81,7 @@ class Database:
     ``nbytes``: its memory estimate without a frame's pixels (``rendering.budget``);
     ``stats``: how long its build took (``renderer._BuildStats``); ``static`` its uploaded
     arrays per precision, ``geometry`` its recentred geometries per (precision, camera
-    event)."""
+    event); ``frame_structs``, ``films`` and ``image_blocks`` what render calls reuse (``frame_inputs``)."""
 
     tessellation: tuple
     primitive: str
@@ -94,6 +96,9 @@ class Database:
     bottom: object = None
     static: dict = field(default_factory=dict)
     geometry: OrderedDict = field(default_factory=OrderedDict)
+    frame_structs: OrderedDict = field(default_factory=OrderedDict)  # rendering/frame_inputs.py
+    films: dict = field(default_factory=dict)  # its idle film (rendering/frame_inputs.py)
+    image_blocks: list = field(default_factory=list)  # the memory of its Images (rendering/frame_inputs.py)
 
     def geometry_for(self, precision: str, origin: tuple, make):
         """The geometry recentred on ``origin`` (made by ``make()`` when missing)."""

@@ -26,10 +26,11 @@ from warp_st.kernels.layout import PRIMITIVES
 from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
 from warp_st.output.channels import LOW_TIME_CHANNELS, join_time, split_time
 from warp_st.output.cryptomatte import image_layers, resolve_layers
-from warp_st.output.film import Image, quantize_time
-from warp_st.rendering import database_cache
+from warp_st.output.film import Image, quantize_relative
+from warp_st.rendering import database_cache, frame_inputs
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
 from warp_st.rendering.database_build import build_database
+from warp_st.rendering.frame_inputs import camera_key
 from warp_st.rendering.tile_pool import tile_pool
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
@@ -334,7 +335,7 @@ class Renderer:
             cache.use(db)
         tc = time.perf_counter()
         self.kernels = get_kernels(self.precision.value, self.primitive)
-        wp.load_module(self.kernels.render_pixels.module, device="cpu")
+        wp.load_module(self.kernels.pixels(bool(self.scene.lights)).module, device="cpu")
         self.stats.compile_seconds = time.perf_counter() - tc
         t3 = time.perf_counter()
         if self.precision.value not in db.static:
@@ -463,29 +464,27 @@ class Renderer:
                 return make_geometry(k, self.static, self.mesh, self.bvh, origin)
         geo = self.database.geometry_for(self.precision.value, tuple(origin.tolist()), make)
         background = self.settings.background or (0.0, 0.0, 0.0)
-        shd = make_shading(
-            k, self.static, self.scene.lights, origin, background, self.max_depth,
-            doppler_color=self.doppler_color, searchlight=self.searchlight, dome=self.scene.dome,
-        )
-        kcam = make_camera(
-            k, cam, self.width, self.height, self._frame_light_speed(cam), samples=self.samples, shutter=self._lab_shutter
-        )
+        light_speed = self._frame_light_speed(cam)
 
+        def make_structs():
+            return (make_shading(k, self.static, self.scene.lights, origin, background, self.max_depth,
+                                 doppler_color=self.doppler_color, searchlight=self.searchlight, dome=self.scene.dome),
+                    make_camera(k, cam, self.width, self.height, light_speed, samples=self.samples,
+                                shutter=self._lab_shutter))
+
+        key = (self.precision.value, camera_key(cam), self.width, self.height, light_speed.value, self.samples,
+               self._lab_shutter, tuple(float(x) for x in background), self.max_depth, self.doppler_color,
+               self.searchlight)
+        shd, kcam = frame_inputs.structs(self.database, key, make_structs)
         n_pix = self.width * self.height
-        film = k.Film()
-        film.rgba = wp.zeros(n_pix, dtype=k.vec4, device="cpu")
-        for name in ("depth", "event_time", "proper_time", "doppler", "source_time"):
-            setattr(film, name, wp.zeros(n_pix, dtype=k.scalar, device="cpu"))
-        film.object_id = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
-        film.bounces = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
-        film.sample_id = wp.zeros(n_pix * self.samples if self.cryptomatte else 0, dtype=wp.int32, device="cpu")
-        film.visits = wp.zeros(n_pix, dtype=wp.int32, device="cpu")
-        film.overflow = wp.zeros(1, dtype=wp.int32, device="cpu")
-
+        frame_inputs.keep_only(database_cache.for_scene(self.scene).databases, self.database)
+        film_key, film = frame_inputs.take_film(self.database, k, n_pix, n_pix * self.samples if self.cryptomatte else 0)
         tiles = [(o, min(TILE_PIXELS, n_pix - o)) for o in range(0, n_pix, TILE_PIXELS)]
 
+        kernel = k.pixels(bool(self.scene.lights))  # without lights: the kernel that casts no shadow rays
+
         def launch(tile):
-            wp.launch(k.render_pixels, dim=-(-tile[1] // PIXELS_PER_THREAD), device="cpu",
+            wp.launch(kernel, dim=-(-tile[1] // PIXELS_PER_THREAD), device="cpu",
                       inputs=[geo, shd, kcam, film, tile[0], tile[0] + tile[1]])
 
         t_kernel = time.perf_counter()
@@ -498,9 +497,9 @@ class Renderer:
         kernel_seconds = time.perf_counter() - t_kernel
         if film.overflow.numpy()[0]:
             raise RuntimeError("BVH traversal stack overflow: the image would be wrong (please report)")
-        image = self._image(film, cam, frame)
-        visits = film.visits.numpy()
-        self.stats.last_mean_visits = float(visits.mean()) if n_pix else 0.0
+        image = self._image(film, cam, frame)  # copies every plane: the film is reused
+        self.stats.last_mean_visits = frame_inputs.film_visits(film, n_pix)
+        frame_inputs.give_back(self.database, film_key, film)
         self.stats.last_kernel_seconds = kernel_seconds
         self.stats.last_frame_seconds = time.perf_counter() - t_start
         self.stats.rays = n_pix
@@ -508,42 +507,40 @@ class Renderer:
 
     def _image(self, film, cam: CameraState, frame: float) -> Image:
         h, w = self.height, self.width
-        rgba = film.rgba.numpy().reshape(h, w, 4).astype(np.float32)
+        out = frame_inputs.image_planes(self.database, h, w)  # every plane copied out of the (reused) film
+        np.copyto(out["rgba"], film.rgba.numpy().reshape(h, w, 4), casting="unsafe")
         # The kernels' times are lab times; the image's are time codes (lab / the light speed, §3.1).
         per_code = float(self.scene.light_speed)
         rel = film.event_time.numpy().reshape(h, w)
         origin = float(cam.time) / per_code
-        object_id = film.object_id.numpy().reshape(h, w).astype(np.uint32)
+        object_id = film.object_id.numpy().reshape(h, w)
         if self.object_of is not None:  # an animated body's pieces are one object
-            object_id = np.where(object_id > 0, self.object_of[np.maximum(object_id, 1) - 1] + 1, 0).astype(np.uint32)
+            object_id = np.where(object_id > 0, self.object_of[np.maximum(object_id, 1) - 1] + 1, 0)
+        np.copyto(out["object_id"], object_id, casting="unsafe")
         source_rel = film.source_time.numpy().reshape(h, w)
         if per_code != 1.0:
             rel, source_rel = rel.astype(np.float64) / per_code, source_rel.astype(np.float64) / per_code
         # Absolute times, quantised exactly as the EXR stores them: float32 relative to t_c,
         # and in float64 renders with each one's float32 residual beside it (channels.py).
-        times, lows = {}, {}
+        lows = {}
         for name, value in (("spacetime.eventTime", rel), ("spacetime.sourceTime", source_rel)):
+            plane = out["event_time" if name == "spacetime.eventTime" else "source_time"]
             if self.precision == Precision.FLOAT64:
                 hi, lows[LOW_TIME_CHANNELS[name]] = split_time(value.astype(np.float64) + origin, origin)
-                times[name] = join_time(hi, lows[LOW_TIME_CHANNELS[name]], origin)
-            else:
-                times[name] = quantize_time(value.astype(np.float64) + origin, origin)
-        event_time, source_time = times["spacetime.eventTime"], times["spacetime.sourceTime"]
-        hit = object_id > 0
+                np.copyto(plane, join_time(hi, lows[LOW_TIME_CHANNELS[name]], origin))
+            else:  # the film's float32 plane serves as the rounding's scratch (the kernel rewrites it)
+                quantize_relative(value, origin, out=plane, scratch=value if value.dtype == np.float32 else None)
+        np.divide(film.proper_time.numpy().reshape(h, w), np.float32(per_code), out=out["proper_time"],
+                  casting="unsafe")
+        for name in ("depth", "doppler", "bounces"):
+            np.copyto(out[name], getattr(film, name).numpy().reshape(h, w), casting="unsafe")
         paths = self.scene.body_paths()
         tables = self.database.shapes if self.primitive == "rigid" else self.mesh
         crypto_planes, layers = image_layers(
             film.sample_id.numpy().reshape(h, w, self.samples), self.cryptomatte, tables.tri_body, paths,
             tables.tri_material, [m.prim_path for m in tables.materials]) if self.cryptomatte else ({}, {})
         return Image(
-            rgba=rgba,
-            depth=film.depth.numpy().reshape(h, w).astype(np.float32),
-            event_time=event_time,
-            proper_time=(film.proper_time.numpy().reshape(h, w) / np.float32(per_code)).astype(np.float32),
-            doppler=film.doppler.numpy().reshape(h, w).astype(np.float32),
-            object_id=object_id,
-            source_time=source_time,
-            bounces=film.bounces.numpy().reshape(h, w).astype(np.uint32),
+            **out,
             camera_time=origin,
             time_origin=origin,
             frame=frame,
@@ -555,7 +552,7 @@ class Renderer:
                 "stage": str(self.scene.source),
                 "camera": str(self.camera_path),
                 "lightSpeed": self._frame_light_speed(cam).value,
-                "coverage": f"{int(hit.sum())}/{hit.size}",
+                "coverage": f"{np.count_nonzero(out['object_id'])}/{out['object_id'].size}",
                 "maxDepth": str(self.max_depth),
                 "samples": str(self.samples),
                 "shutter": repr(self.shutter),
