@@ -366,7 +366,6 @@ def _make_render(scalar, k, trace, Geometry):
                 alpha = scalar(0.0)
                 prim = int(-1)
                 s = scalar(0.0)
-                lam = vec4(scalar(0.0))
                 src_t = scalar(0.0)
                 src_b = int(0)
                 visits = int(0)
@@ -380,7 +379,7 @@ def _make_render(scalar, k, trace, Geometry):
                     ray_n = n
                     if k > 0:
                         ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
-                    c, a, p_k, s_k, lam_k, st_k, sb_k, ray_visits, ray_ovf, u_k, g_k = trace_path(geo, shd, cam, ray_o, ray_n)
+                    c, a, p_k, s_k, _lam_k, st_k, sb_k, ray_visits, ray_ovf, u_k, g_k = trace_path(geo, shd, cam, ray_o, ray_n)
                     visits += ray_visits
                     overflow = wp.max(overflow, ray_ovf)
                     if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
@@ -393,7 +392,6 @@ def _make_render(scalar, k, trace, Geometry):
                         alpha = a
                         prim = p_k
                         s = s_k
-                        lam = lam_k
                         src_t = st_k
                         src_b = sb_k
                         u0 = u_k

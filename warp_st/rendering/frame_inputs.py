@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import sys
 import threading
-from collections import OrderedDict
 
 import numpy as np
 import warp as wp
