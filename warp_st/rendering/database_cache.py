@@ -92,6 +92,7 @@ class Database:
     segments: object = None
     shapes: object = None
     bottom: object = None
+    tets: object = None  # rigid with deforming bodies: (extrusion, its BVH, triangle offset), spacetime/mixed.py
     static: dict = field(default_factory=dict)
     geometry: OrderedDict = field(default_factory=OrderedDict)
 

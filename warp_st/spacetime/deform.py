@@ -170,11 +170,16 @@ def deformed_triangles(body: Body, bt, longest_edges):
     return dataclasses.replace(bt, tri_smooth=np.ones(len(bt.triangles), np.int32), tri_size=size)
 
 
-def deform_primitive(scene, primitive: str | None) -> str | None:
-    """The renderer's primitive for ``scene``: "tet" when a body deforms (its prisms are not
-    rigid: only their tetrahedra are exact) and none or "tet" was asked, else ``primitive``."""
+def deform_primitive(scene, primitive: str | None, rigid: bool = True) -> str | None:
+    """The renderer's primitive for ``scene`` when a body deforms: its prisms are not rigid
+    (only their tetrahedra are exact), so "prism" is an error; "rigid" traces the deforming
+    bodies' tetrahedra as leaves of the two-level path (``spacetime.mixed``), the default
+    where the rigid path is (``rigid``: float32), else "tet". Without one: ``primitive``."""
     body = next((b for b in scene.bodies if deforming(b)), None)
-    if body is None or primitive in (None, "tet"):
-        return primitive if body is None else "tet"
+    if body is None or primitive in ("tet", "rigid"):
+        return primitive
+    if primitive is None:
+        return None if rigid else "tet"
     raise SceneError.at(scene.source, body.prim_path, "primitive",
-                        f"a deforming body is traced on the tet path only (got {primitive!r}); use primitive='tet'")
+                        f"a deforming body is traced on the tet or rigid path only (got {primitive!r}); "
+                        "use primitive='rigid' or 'tet'")
