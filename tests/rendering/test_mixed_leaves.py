@@ -1,0 +1,176 @@
+"""Deforming bodies as leaves of the two-level path (docs/spec.md §2.2, 0.8.0; docs/design/mixed-leaves.md).
+
+Laws (the oracle: the all-tet path, ``primitive="tet"``, which extrudes every body):
+- the waving flag (examples/animation/waving_flag.usda) beside a static crate, a sphere at
+  0.5c and a cube moving with the flag renders on the default path (rigid, with the
+  flag's tetrahedra as leaves) with the all-tet path's hit masks and object ids, and its
+  event times and depths to float32 rounding; the deforming body's pixels bit for bit
+  (the same tetrahedra, tested by the same function from the same origin);
+- a scene of the flag alone renders bit for bit as on the all-tet path;
+- shadows cast by the deforming body onto rigid ones, and by a rigid body onto it, are
+  the all-tet path's;
+- the database follows the deforming body: other cameras re-slice it (and reuse the
+  rigid shapes), a changed flag is a new scene and a new database.
+"""
+import dataclasses
+
+import numpy as np
+import pytest
+
+import warp_st
+from warp_st.core.deform import PointSamples
+from warp_st.rendering import database_cache
+from warp_st.rendering.renderer import Renderer
+
+from animation_stages import edge_pixels, write
+from deform_stages import flag_samples, mesh_stage
+
+W, H = 160, 90
+FLAG = "examples/animation/waving_flag.usda"
+#: Rigid bodies beside the flag: a static crate, a coupled sphere at 0.5c and a cube moving
+#: with the banner (decoupled, 0.8c) between the sun and the flag (it shadows the flag).
+EXTRA = '''
+def Cube "Crate"
+{
+    double size = 1.2
+    double3 xformOp:translate = (-2.5, 0.6, 1.5)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    color3f[] primvars:displayColor = [(0.7, 0.4, 0.2)]
+}
+def Sphere "Ball" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{
+    custom double4 spacetime:fourVelocity = (1.1547005383792517, -0.5773502691896258, 0, 0)
+    custom double spacetime:referenceTime = 20
+    double radius = 0.7
+    double3 xformOp:translate = (4.5, 1.0, 2.0)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    color3f[] primvars:displayColor = [(0.3, 0.5, 0.8)]
+}
+def Cube "Shade" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{
+    custom double4 spacetime:fourVelocity = (1, 0.8, 0, 0)
+    custom double spacetime:referenceTime = 20
+    custom bool spacetime:lorentzDecoupled = true
+    double size = 0.6
+    double3 xformOp:translate = (2.63, 3.49, 0.75)
+    uniform token[] xformOpOrder = ["xformOp:translate"]
+    color3f[] primvars:displayColor = [(0.9, 0.9, 0.9)]
+}
+'''
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    path = tmp_path_factory.mktemp("mixed") / "mixed.usda"
+    path.write_text(open(FLAG).read() + EXTRA)
+    return warp_st.load(str(path))
+
+
+def _mixed(scene, frame, **options):
+    """The default path (rigid with tetrahedra leaves), spheres tessellated as on the tet path."""
+    renderer = Renderer(scene, frames=[frame], width=W, height=H, quadrics="tessellated", **options)
+    assert renderer.primitive == "rigid" and renderer.database.tets is not None
+    return renderer, renderer.render(frame)
+
+
+def _tet(scene, frame, **options):
+    return Renderer(scene, frames=[frame], width=W, height=H, primitive="tet", **options).render(frame)
+
+
+def _banner_id(scene) -> int:
+    return 1 + [b.prim_path for b in scene.bodies].index("/Banner")
+
+
+@pytest.mark.parametrize("frame", [28.0, 36.0])
+def test_flag_among_rigid_bodies_matches_the_all_tet_path(scene, frame):
+    """Masks equal except silhouette pixels (none measured), object ids equal where both
+    hit. Rigid pixels: event times within 5e-5 and depths within 1e-5 relative (the rigid
+    path rounds the ray in body coordinates, the tet path the events relative to the camera:
+    float32 at times ~30 and depths ~15 is 2e-6 and 1e-6; measured 2.9e-5 and 3e-6 at most,
+    a grazing sphere pixel). The banner's pixels (its tetrahedra) are identical."""
+    renderer, a = _mixed(scene, frame)
+    b = _tet(scene, frame)
+    ma, mb = a.object_id > 0, b.object_id > 0
+    assert not ((ma != mb) & ~edge_pixels(ma, mb)).any()
+    both = ma & mb
+    assert (a.object_id[both] == b.object_id[both]).all()
+    seen = {int(i) for i in np.unique(a.object_id[both])}
+    assert {1, 2, 3} <= seen and seen & {4, 5}  # ground, banner, crate and a moving rigid body
+    assert np.abs(a.event_time[both] - b.event_time[both]).max() <= 5e-5
+    assert (np.abs(a.depth[both] - b.depth[both]) / b.depth[both]).max() <= 1e-5
+    banner = both & (a.object_id == _banner_id(scene))
+    assert banner.sum() > 1000
+    for channel in ("event_time", "depth", "rgba", "doppler"):
+        assert np.array_equal(getattr(a, channel)[banner], getattr(b, channel)[banner]), channel
+    # Only the banner is extruded: its tetrahedra are the all-tet path's but for the others'.
+    tet = Renderer(scene, frames=[frame], width=W, height=H, primitive="tet")
+    banner_tets = int((tet.mesh.tri_body[tet.mesh.tet_tri] == _banner_id(scene) - 1).sum())
+    assert renderer.stats.tetrahedra == banner_tets < tet.stats.tetrahedra
+
+
+def test_flag_alone_renders_as_on_the_tet_path(tmp_path):
+    """A stage of the flag alone (points sampled at 0 and 20): every channel bit for bit."""
+    samples, counts, indices = flag_samples(20.0)
+    flag = warp_st.load(write(tmp_path, "flag.usda", mesh_stage("Flag", samples, counts, indices)))
+    for frame in (18.0, 26.0):
+        _renderer, a = _mixed(flag, frame)
+        b = _tet(flag, frame)
+        assert (a.object_id > 0).sum() > 300
+        for channel in ("object_id", "event_time", "depth", "rgba", "doppler", "proper_time"):
+            assert np.array_equal(getattr(a, channel), getattr(b, channel), equal_nan=True), (frame, channel)
+
+
+def _without(scene, path):
+    return dataclasses.replace(scene, bodies=tuple(b for b in scene.bodies if b.prim_path != path))
+
+
+@pytest.mark.parametrize("frame", [32.0, 36.0])
+def test_shadows_by_and_onto_the_deforming_body(scene, frame):
+    """Shadow pixels are those that a render without the caster shows brighter (by more
+    than 0.05 in red): the flag's shadow on the ground, crate or ball (the banner removed),
+    the shade's on the flag (the shade removed). There, the colour is the all-tet path's
+    within 1e-5 (float32 rounding of the shading, measured 0)."""
+    _r, a = _mixed(scene, frame)
+    b = _tet(scene, frame)
+    banner = _banner_id(scene)
+    _r, no_shade = _mixed(_without(scene, "/Shade"), frame)
+    no_banner = Renderer(_without(scene, "/Banner"), frames=[frame], width=W, height=H,
+                         quadrics="tessellated").render(frame)
+    brighter = (no_banner.rgba[..., 0] > a.rgba[..., 0] + 0.05) & (a.object_id != banner)
+    by = brighter & (np.where(no_banner.object_id >= banner, no_banner.object_id + 1, no_banner.object_id)
+                     == a.object_id) & (a.object_id > 0)
+    onto = (a.object_id == banner) & (no_shade.object_id == banner) & (no_shade.rgba[..., 0] > a.rgba[..., 0] + 0.05)
+    assert by.sum() > 100 and onto.sum() > 200, (int(by.sum()), int(onto.sum()))
+    assert np.abs(a.rgba - b.rgba)[by | onto].max() <= 1e-5
+
+
+def test_database_follows_the_deforming_body(scene):
+    """Another resolution re-slices the flag (the half-pixel rule, §2.2: more tetrahedra
+    at 640 x 360) in a new database whose tetrahedra are the all-tet path's there, while the
+    rigid shapes and bottom levels are reused (the ball left out: its tessellation follows
+    the resolution too). A flag with other samples is a new scene: its own database, and its
+    image changes where the flag is."""
+    scene = _without(scene, "/Ball")
+    small = Renderer(scene, frames=[28.0], width=W, height=H, quadrics="tessellated")
+    small.render(28.0)
+    big = Renderer(scene, frames=[28.0], width=4 * W, height=4 * H, quadrics="tessellated")
+    assert big.database is not small.database and big.database.bottom is small.database.bottom
+    tet = Renderer(scene, frames=[28.0], width=4 * W, height=4 * H, primitive="tet")
+    banner_tets = int((tet.mesh.tri_body[tet.mesh.tet_tri] == _banner_id(scene) - 1).sum())
+    assert big.stats.tetrahedra == banner_tets > small.stats.tetrahedra
+    builds = database_cache.builds()
+    Renderer(scene, frames=[28.0], width=W, height=H, quadrics="tessellated")
+    assert database_cache.builds() == builds  # the same frames again: nothing built
+    i = _banner_id(scene) - 1
+    body = scene.bodies[i]
+    flag = next(s for s in body.surfaces if s.samples is not None)
+    lifted = dataclasses.replace(flag, samples=PointSamples(times=flag.samples.times,
+                                                            points=flag.samples.points + np.array([0.0, 0.5, 0.0])))
+    moved = dataclasses.replace(scene, bodies=scene.bodies[:i] + (dataclasses.replace(
+        body, surfaces=tuple(lifted if s is flag else s for s in body.surfaces)),) + scene.bodies[i + 1:])
+    _r, before = _mixed(scene, 28.0)
+    _r, after = _mixed(moved, 28.0)
+    assert database_cache.builds() > builds
+    assert ((before.object_id == i + 1) != (after.object_id == i + 1)).sum() > 100
+    expected = _tet(moved, 28.0)
+    assert np.array_equal(after.object_id, expected.object_id)
