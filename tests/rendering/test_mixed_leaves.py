@@ -98,6 +98,9 @@ def test_flag_among_rigid_bodies_matches_the_all_tet_path(scene, frame):
     assert {1, 2, 3} <= seen and seen & {4, 5}  # ground, banner, crate and a moving rigid body
     assert np.abs(a.event_time[both] - b.event_time[both]).max() <= 5e-5
     assert (np.abs(a.depth[both] - b.depth[both]) / b.depth[both]).max() <= 1e-5
+    # Colour off the silhouettes within 1e-4: the shading of those float32 events (measured
+    # 2.3e-5 at most, the shade's facets, whose events moved by 2.9e-5 of c).
+    assert np.abs(a.rgba - b.rgba)[both & ~edge_pixels(ma, mb)].max() <= 1e-4
     banner = both & (a.object_id == _banner_id(scene))
     assert banner.sum() > 1000
     for channel in ("event_time", "depth", "rgba", "doppler"):
@@ -126,8 +129,8 @@ def _without(scene, path):
 
 @pytest.mark.parametrize("frame", [32.0, 36.0])
 def test_shadows_by_and_onto_the_deforming_body(scene, frame):
-    """Shadow pixels are those that a render without the caster shows brighter (by more
-    than 0.05 in red): the flag's shadow on the ground, crate or ball (the banner removed),
+    """Shadow pixels are those that a render without the caster shows brighter than the
+    all-tet path's (by more than 0.05 in red): the flag's shadow on the ground, crate or ball (the banner removed),
     the shade's on the flag (the shade removed). There, the colour is the all-tet path's
     within 1e-5 (float32 rounding of the shading, measured 0)."""
     _r, a = _mixed(scene, frame)
@@ -136,10 +139,10 @@ def test_shadows_by_and_onto_the_deforming_body(scene, frame):
     _r, no_shade = _mixed(_without(scene, "/Shade"), frame)
     no_banner = Renderer(_without(scene, "/Banner"), frames=[frame], width=W, height=H,
                          quadrics="tessellated").render(frame)
-    brighter = (no_banner.rgba[..., 0] > a.rgba[..., 0] + 0.05) & (a.object_id != banner)
+    brighter = (no_banner.rgba[..., 0] > b.rgba[..., 0] + 0.05) & (a.object_id != banner)
     by = brighter & (np.where(no_banner.object_id >= banner, no_banner.object_id + 1, no_banner.object_id)
                      == a.object_id) & (a.object_id > 0)
-    onto = (a.object_id == banner) & (no_shade.object_id == banner) & (no_shade.rgba[..., 0] > a.rgba[..., 0] + 0.05)
+    onto = (a.object_id == banner) & (no_shade.object_id == banner) & (no_shade.rgba[..., 0] > b.rgba[..., 0] + 0.05)
     assert by.sum() > 100 and onto.sum() > 200, (int(by.sum()), int(onto.sum()))
     assert np.abs(a.rgba - b.rgba)[by | onto].max() <= 1e-5
 
