@@ -114,7 +114,8 @@ class Renderer:
         in its comoving coordinates, a 4D top level over its motion segments), "prism"
         (the default in float64: one comoving triangle test per extruded prism) or
         "tet" (three tetrahedra per prism, the general path); all give the same images
-        to float32 rounding.
+        to float32 rounding. Deforming bodies are tetrahedra on the rigid path too (its
+        second leaf kind, spacetime/mixed.py); in float64 their scenes default to "tet".
     quadrics: "exact" (the default on the rigid path: a body whose one surface is a
         UsdGeom.Sphere is traced as its exact ellipsoid, spacetime/rigid.py) or
         "tessellated" (every sphere as triangles within half a pixel; the only choice on
