@@ -230,3 +230,23 @@ def test_rigid_bodies_beside_the_flag_are_the_rigid_paths(scene, frame):
     assert 3 in seen and seen & {4, 5}, seen  # the crate and a moving body (the ball at 36, the shade at 28)
     for channel in ("event_time", "depth"):
         assert np.array_equal(getattr(a, channel)[same], getattr(c, channel)[same]), channel
+
+
+def test_memory_limit_counts_both_parts(scene):
+    """``max_memory`` between the larger of the rigid part's and the tetrahedra's estimates
+    (each with the frame's pixels) and their sum refuses before building: the limit holds
+    for the database as a whole; at the sum it renders."""
+    from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_resources
+    from warp_st.spacetime.mixed import deforming_windows, rigid_part
+
+    probe = Renderer(scene, frames=[28.0], width=W, height=H, quadrics="tessellated")
+    windows, view = probe.database.windows, probe.slice_view
+    limits = dict(width=W, height=H, max_depth=probe.max_depth)
+    rigid = check_resources(rigid_part(scene), windows, rigid=True, **limits)
+    tets = check_resources(scene, deforming_windows(scene, windows), view=view, **limits)
+    total = rigid + tets - W * H * BYTES_PER_PIXEL
+    database_cache.clear(scene)
+    with pytest.raises(MemoryRefusal, match="the render needs about"):
+        Renderer(scene, frames=[28.0], width=W, height=H, quadrics="tessellated",
+                 max_memory=(max(rigid, tets) + total) // 2)
+    Renderer(scene, frames=[28.0], width=W, height=H, quadrics="tessellated", max_memory=total)

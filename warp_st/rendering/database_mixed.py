@@ -20,12 +20,15 @@ def shapes_key(tessellation: tuple) -> tuple:
     return tuple(e for e in tessellation if not (isinstance(e, tuple) and e and e[0] == "deform"))
 
 
-def tet_leaves(scene, windows: list, shapes, segments, *, view, **limits):
+def tet_leaves(scene, windows: list, shapes, segments, *, view, rigid_bytes: int = 0, **limits):
     """(tets, shapes, segments, bytes) of the deforming bodies of ``scene``: ``tets`` =
     (extrusion, its BVH, the rigid triangle count), the rigid ``shapes`` joined with its
     tables and ``segments`` with its leaf; ``bytes``: its memory estimate
-    (``budget.check_resources`` refuses before the build what would not fit ``limits``)."""
+    (``budget.check_resources`` refuses before the build what would not fit ``limits``'
+    ``max_memory`` beside the rigid part's ``rigid_bytes``)."""
     windows = deforming_windows(scene, windows)
+    if limits.get("max_memory") is not None:
+        limits = dict(limits, max_memory=limits["max_memory"] - rigid_bytes)
     nbytes = check_resources(scene, windows, view=view, **limits)
     nbytes -= limits["width"] * limits["height"] * BYTES_PER_PIXEL
     mesh, bvh = build_database(scene, windows, "tet", view=view)

@@ -410,7 +410,7 @@ class Renderer:
         tets = None
         if mixed:
             tets, shapes, segments, tet_bytes = tet_leaves(scene, windows, shapes, segments, view=self.slice_view,
-                                                           **limits)
+                                                           rigid_bytes=nbytes, **limits)
             nbytes += tet_bytes
         top = build_top_level(segments)
         built = _BuildStats(extrude_seconds=time.perf_counter() - t0 - top.build_seconds,
