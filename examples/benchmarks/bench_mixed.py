@@ -31,7 +31,7 @@ import numpy as np  # noqa: E402
 FRAME = 32.0
 
 
-def scene_with_spheres(moving: bool = False):
+def scene_with_spheres(moving: bool = False, segments: int = 128):
     """The waving flag's scene with 16 spheres of radius 1 behind the banner (``moving``:
     bench_two_level's velocities, each centre on the camera's past lightcone at FRAME)."""
     import warp_st
@@ -41,7 +41,7 @@ def scene_with_spheres(moving: bool = False):
     offset = np.array([2.0, 4.5, 2.0])  # the spheres' grid (z = -12) moved to z = -10, around the banner
     spheres = []
     camera = flag.camera_state(flag.default_camera, FRAME).position
-    for b in spheres_scene(128, moving=moving).bodies:
+    for b in spheres_scene(segments, moving=moving).bodies:
         surfaces = tuple(dataclasses.replace(s, points=np.asarray(s.points) + offset) for s in b.surfaces)
         origin = np.asarray(b.origin) + offset
         spheres.append(dataclasses.replace(b, surfaces=surfaces, origin=origin,
@@ -49,20 +49,21 @@ def scene_with_spheres(moving: bool = False):
     return dataclasses.replace(flag, bodies=flag.bodies + tuple(spheres))
 
 
-def main() -> None:
+def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--width", type=int, default=320)
     ap.add_argument("--height", type=int, default=180)
     ap.add_argument("--moving", action="store_true", help="the spheres at 0.3-0.9c")
-    args = ap.parse_args()
+    ap.add_argument("--segments", type=int, default=128, help="the spheres' longitudes (smoke tests: fewer)")
+    args = ap.parse_args(argv)
     from bench_two_level import cpu_model
 
     from warp_st.rendering.budget import MemoryRefusal
     from warp_st.rendering.database_bytes import extrusion_tables, rigid_tables, total_bytes
     from warp_st.rendering.renderer import Renderer
 
-    scene = scene_with_spheres(args.moving)
+    scene = scene_with_spheres(args.moving, args.segments)
     tris = sum(b.triangle_count for b in scene.bodies)
     renderers, builds = {}, {}
     for primitive in ("rigid", "tet"):
