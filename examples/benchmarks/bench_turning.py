@@ -3,8 +3,8 @@
 
 A benchmark, not a test: it asserts nothing. For ``examples/animation/spinning_rod.usda`` at
 ``--size`` and ``--frame`` it builds a ``Renderer`` with ``primitive="rigid"`` (the pieces)
-and with the default (the watertight worldlines of ``spacetime/turning.py``, on the
-tetrahedral path), and prints the primitive, the database's bytes, the pieces or sample
+and with the default (the watertight worldlines of ``spacetime/turning.py``, as
+tetrahedra leaves of the rigid path), and prints the primitive, the database's bytes, the pieces or sample
 intervals (``describe()["animated_segments"]``), the tetrahedra, the build (kernels
 compiled beforehand) and the fastest of ``--repeat`` frame renders
 (docs/design/turning-bodies.md).

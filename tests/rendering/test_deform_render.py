@@ -10,7 +10,8 @@ Laws:
   the distance at 256 x 192);
 - a UsdSkel-skinned box renders its bending: two time codes differ, and every hit lies on
   the surface UsdSkel's own BakeSkinning gives at the hit's time, within the same bound;
-- a deforming body is not traced rigidly: asking for the rigid or prism path is an error.
+- a deforming body's prisms are not rigid: asking for the prism path is an error (the
+  default rigid path traces its tetrahedra as leaves, tests/rendering/test_mixed_leaves.py).
 """
 import numpy as np
 import pytest
@@ -51,7 +52,7 @@ def test_translating_points_render_as_four_velocity(tmp_path):
     seen = 0
     for frame in (55.0, 62.0, 70.0):
         renderer = Renderer(deforming, frames=[frame], width=W, height=H)
-        assert renderer.primitive == "tet"
+        assert renderer.primitive == "rigid" and renderer.database.tets is not None
         a = renderer.render(frame)
         u = warp_st.render(uniform, frame=frame, width=W, height=H)
         ma, mu = a.object_id > 0, u.object_id > 0
@@ -110,9 +111,9 @@ def test_skinned_box_bends_as_usdskel_bakes_it(tmp_path):
     assert (images[12.0].object_id != images[22.0].object_id).sum() > 80
 
 
-@pytest.mark.parametrize("primitive", ["rigid", "prism"])
-def test_deforming_body_is_not_traced_rigidly(tmp_path, primitive):
+def test_deforming_body_is_not_traced_as_prisms(tmp_path):
     samples, counts, indices = flag_samples(20.0)
     scene = warp_st.load(write(tmp_path, "flag.usda", mesh_stage("Flag", samples, counts, indices)))
-    with pytest.raises(SceneError, match=r"/Flag: primitive: a deforming body is traced on the tet path only"):
-        Renderer(scene, frames=[10.0], width=8, height=6, primitive=primitive)
+    with pytest.raises(SceneError, match=r"/Flag: primitive: a deforming body is traced on the tet or rigid path only"):
+        Renderer(scene, frames=[10.0], width=8, height=6, primitive="prism")
+    assert Renderer(scene, frames=[10.0], width=8, height=6, precision="float64").primitive == "tet"

@@ -59,7 +59,11 @@ def test_which_bodies_are_traced_as_worldlines(tmp_path, text, expected):
     cam = scene.camera_state(None, 50.0)
     (_i, cuts), = animation_cuts(scene, [cam], worldlines=True, **SIZE)
     assert is_worldlines(cuts) is expected
-    assert (Renderer(scene, frames=[50.0], **SIZE).primitive == "tet") is expected  # the default path
+    # the default path: float32 keeps the rigid path, the worldline body its tetrahedra leaves
+    # (spacetime/mixed.py); float64 goes to the tetrahedral path
+    r = Renderer(scene, frames=[50.0], **SIZE)
+    assert r.primitive == "rigid" and (r.stats.tetrahedra > 0) is expected
+    assert (Renderer(scene, frames=[50.0], precision="float64", **SIZE).primitive == "tet") is expected
 
 
 def _usd_points(path: str, gprim: str, local: np.ndarray, t: float) -> np.ndarray:

@@ -27,16 +27,17 @@ PIXELS_PER_THREAD = 64
 
 
 class Kernels:
-    """The compiled device types and kernels for one scalar type and primitive kind."""
+    """The compiled device types and kernels for one scalar type and primitive kind
+    (``tets``: the rigid path with deforming bodies' tetrahedra, ``trace_rigid``)."""
 
-    def __init__(self, scalar, primitive: str = "prism"):
+    def __init__(self, scalar, primitive: str = "prism", tets: bool = False):
         self.scalar = scalar
         self.primitive = primitive
         self.vec3 = wp.types.vector(3, scalar)
         self.vec4 = wp.types.vector(4, scalar)
         self.vec16 = wp.types.vector(16, scalar)  # box corners of a wide node's four children
         if primitive == "rigid":
-            Geometry, trace, prepare, leaf = make_trace_rigid(scalar)
+            Geometry, trace, prepare, leaf = make_trace_rigid(scalar, tets)
         else:
             Geometry, trace, prepare, leaf = make_trace(scalar, primitive)
         self.Geometry = Geometry
@@ -464,10 +465,11 @@ def _make_render(scalar, k, trace, Geometry):
 
 
 @functools.lru_cache(maxsize=None)
-def get_kernels(precision: str, primitive: str = "prism") -> Kernels:
+def get_kernels(precision: str, primitive: str = "prism", tets: bool = False) -> Kernels:
     """Kernels for ``"float32"``/``"float64"`` and a primitive of PRIMITIVES, built
-    once per process (``"rigid"`` in float64 serves scenes of exact quadrics only)."""
+    once per process (``"rigid"`` in float64 serves scenes of exact quadrics only;
+    ``tets``: rigid with deforming bodies' tetrahedra as a second leaf kind)."""
     scalar = {"float32": wp.float32, "float64": wp.float64}[precision]
     if primitive not in PRIMITIVES:
         raise ValueError(f"primitive must be one of {', '.join(PRIMITIVES)}, got {primitive!r}")
-    return Kernels(scalar, primitive)
+    return Kernels(scalar, primitive, tets and primitive == "rigid")

@@ -40,6 +40,13 @@ has a root at its start, within the float32 rounding of the hit event (~1e-7 of 
 path): the self-intersection offset s_min (``shade.SELF_EPS``, 1e-4 of the path) drops
 it, and as the ellipsoid is convex and the ray a straight line in its frame, the other
 root lies behind the ray unless it leaves into the inside (every shape is convex).
+
+Deforming bodies (``tets``, docs/design/mixed-leaves.md): their tetrahedra are a second
+leaf kind. A segment whose body is -1 holds the deforming bodies' 4D tetrahedron BVH
+(``g.tets``, the tet path's own Geometry, ``trace.py``): the leaf runs that path's
+traversal and exact tetrahedron test on it, nested as the bottom level is, with the
+ray's own s_min, best, skips and any-hit flag, so its hits are the tet path's. A
+tetrahedron hit returns primitive ``tet_first`` + its index (``prim_lookup``).
 """
 
 import warp as wp
@@ -47,16 +54,18 @@ import warp as wp
 from warp_st.kernels.blas import make_blas_query
 from warp_st.kernels.layout import ANALYTIC
 from warp_st.kernels.quadrics import make_quadrics
+from warp_st.kernels.trace import make_trace
 from warp_st.kernels.traverse import make_box_ops, make_traverse
 
 __all__ = ["make_trace_rigid"]
 
 
-def make_trace_rigid(scalar):
+def make_trace_rigid(scalar, tets: bool = False):
     """The rigid path's Geometry and traversal in ``scalar``. The bottom levels'
     bottom-level queries are float32 whatever ``scalar`` is (``at``): in float64 the path
     is exact only for analytic shapes, which is why the renderer takes it in float64 only
-    for scenes of exact quadrics (``rendering.renderer``)."""
+    for scenes of exact quadrics (``rendering.renderer``). ``tets``: the Geometry also
+    holds deforming bodies' tetrahedra (``tets``, ``tet_first``; see the module docstring)."""
     vec2 = wp.types.vector(2, scalar)
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
@@ -70,6 +79,8 @@ def make_trace_rigid(scalar):
     # fraction of its lookback (and as much absolutely): far past the float32 rounding of
     # the crossing (~1e-7), far below the self-intersection offset SELF_EPS (1e-4).
     SKIP_STEP = 1.0e-6
+    TetGeometry, tet_trace = make_trace(scalar, "tet")[:2] if tets else (None, None)
+    with_tets = tets  # the struct's field is named tets
 
     @wp.struct
     class Geometry:
@@ -122,6 +133,9 @@ def make_trace_rigid(scalar):
         blas_link: wp.array(dtype=wp.vec4i)
         blas_points: wp.array(dtype=wp.vec3)
         body_blas_vert: wp.array(dtype=wp.int32)
+        if with_tets:  # deforming bodies' tetrahedra (trace.py's Geometry), primitives from tet_first on
+            tets: TetGeometry
+            tet_first: int
 
     blas_query = make_blas_query(Geometry)
 
@@ -229,6 +243,17 @@ def make_trace_rigid(scalar):
             si = first + k
             span = g.seg_span[si]
             body = g.seg_body[si]
+            if wp.static(tets):
+                if body < 0:  # the deforming bodies' tetrahedra: the tet path's traversal and test
+                    tp, ts, tl, _visits, _ovf = tet_trace(g.tets, o, n, finite, s_min, best, skip_tri, skip_body,
+                                                          skip_dist, any_hit)
+                    if tp >= 0:
+                        best = ts
+                        best_prim = g.tet_first + tp
+                        best_lam = tl
+                        if any_hit != 0:
+                            return best, best_prim, best_lam
+                    continue
             s_from = s_min
             own = int(0)  # a body of skip_body's object (an animated body's piece)
             if skip_body >= 0:
@@ -306,4 +331,5 @@ def make_trace_rigid(scalar):
         return best, best_prim, best_lam
 
     trace = make_traverse(scalar, Geometry, prepare, leaf)
+    Geometry.tet_geometry = TetGeometry  # the nested struct's type (None without tets)
     return Geometry, trace, prepare, leaf

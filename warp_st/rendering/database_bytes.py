@@ -4,7 +4,8 @@
 host tables of its shapes (``spacetime.rigid.RigidShapes``), motion segments and top
 level, the bottom levels' tables (``accel/blas.py``: wide nodes; the shapes' vertex
 indices and points they read are the shapes' own, counted once), the uploaded arrays of
-each precision (``device_rigid.RigidArrays``) and the recentred geometries it caches.
+each precision (``device_rigid.RigidArrays``) and the recentred geometries it caches;
+with deforming bodies also their tetrahedra (``device_mixed.MixedArrays``).
 Each buffer is counted once, under the first name that reaches it: a device array made
 over a host table without a copy costs nothing more. The scene's own bodies and surfaces
 (what the reader made) are not the database's and are not counted.
@@ -17,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-__all__ = ["Table", "rigid_tables", "total_bytes"]
+__all__ = ["Table", "rigid_tables", "extrusion_tables", "total_bytes"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +52,9 @@ class _Counter:
         elif isinstance(value, (tuple, list)):
             for item in value:
                 self.add(name, item)
+        elif isinstance(value, dict):
+            for key, item in value.items():
+                self.add(f"{name}.{key}", item)
         elif dataclasses.is_dataclass(value) and not isinstance(value, type):
             for f in dataclasses.fields(value):
                 self.add(f"{name}.{f.name}", getattr(value, f.name))
@@ -88,10 +92,28 @@ def rigid_tables(db) -> list[Table]:
     c.add("host top level", db.bvh)
     for name, value in vars(db.bottom).items():
         c.add(f"host bottom.{name}", value)
+    if db.tets is not None:  # deforming bodies' tetrahedra (spacetime/mixed.py): the extrusion and its BVH
+        c.add("host tets", db.tets[:2])
+    return _uploads(c, db)
+
+
+def extrusion_tables(db) -> list[Table]:
+    """Every buffer of a prism or tet database ``db`` (its extrusion without the scene's
+    materials and bodies, its BVH, uploads and geometries), largest first."""
+    c = _Counter()
+    for f in dataclasses.fields(db.mesh):
+        if f.name not in ("materials", "bodies"):
+            c.add(f"host mesh.{f.name}", getattr(db.mesh, f.name))
+    c.add("host bvh", db.bvh)
+    return _uploads(c, db)
+
+
+def _uploads(c: _Counter, db) -> list[Table]:
+    """``c`` with ``db``'s uploaded arrays per precision and its cached geometries, largest first."""
     for precision, static in db.static.items():
         for name, value in vars(static).items():
             if name != "bottom":
-                c.add(f"{precision} {name}", value)
+                c.add(f"{precision} {name}", vars(value) if name == "tet_static" else value)
     for key, geometry in db.geometry.items():
         c.add(f"{key[0]} frame geometry", geometry)
     return sorted(c.tables, key=lambda t: -t.nbytes)

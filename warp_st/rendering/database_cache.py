@@ -29,7 +29,9 @@ keyed by it): dropping the last reference to a scene frees them. ``clear(scene)`
 Rigid bodies (the default path): the shapes and their bottom levels (one 3D BVH per
 distinct shape, ``accel/blas.py``) depend on the tessellation only and are cached apart from the top
 level, which the windows decide; a database for other frames rebuilds only the top
-level (O(bodies)).
+level (O(bodies)). Deforming bodies' tetrahedra (``spacetime.mixed``) belong to the
+database, as the top level does (they follow the windows and the cameras' slice view); the
+shapes' key leaves that view out (``database_mixed.shapes_key``), so other cameras reuse them.
 
 Memory: per scene at most MAX_DATABASES databases, MAX_TESSELLATIONS re-tessellated body
 sets and rigid shape sets, and MAX_WINDOWS window lists (a few floats per body each),
@@ -94,6 +96,7 @@ class Database:
     segments: object = None
     shapes: object = None
     bottom: object = None
+    tets: object = None  # rigid with deforming bodies: (extrusion, its BVH, triangle offset), spacetime/mixed.py
     static: dict = field(default_factory=dict)
     geometry: OrderedDict = field(default_factory=OrderedDict)
     frame_structs: OrderedDict = field(default_factory=OrderedDict)  # rendering/frame_inputs.py

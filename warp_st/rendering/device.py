@@ -122,9 +122,11 @@ def outward(values64: np.ndarray, np_scalar, direction: float) -> np.ndarray:
     return out
 
 
-def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: FlatBVH, origin: np.ndarray):
-    """Geometry struct with vertices and boxes recentred on ``origin`` = (t_c, c)."""
-    g = k.Geometry()
+def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: FlatBVH, origin: np.ndarray,
+                  geometry=None):
+    """Geometry struct with vertices and boxes recentred on ``origin`` = (t_c, c);
+    ``geometry``: the struct type when not ``k.Geometry`` (the rigid path's nested tetrahedra)."""
+    g = (geometry or k.Geometry)()
     ns = static.np_scalar
     vert = (mesh.vertices - origin).astype(ns)
     g.vert = wp.array(vert, dtype=k.vec4, device=_DEVICE)

@@ -68,6 +68,9 @@ class RigidArrays(ShadingTables):
         self.wide = collapse(top)
         self.node_link = wp.array(self.wide.link, dtype=wp.vec4i, device=_DEVICE)
 
+    def add_leaves(self, k: Kernels, g, origin: np.ndarray) -> None:
+        """Other leaf kinds' geometry on ``g`` (``device_mixed.MixedArrays``: tetrahedra); none here."""
+
 
 def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegments, top: FlatBVH, origin: np.ndarray):
     """Geometry struct of the rigid path, recentred on ``origin`` = (t_c, c)."""
@@ -88,4 +91,5 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     g.body_end = wp.array(static.body_end - origin[0], dtype=wp.float64, device=_DEVICE)
     g.body_anchor = wp.array((static.body_frame - origin).reshape(-1, 4), dtype=wp.vec4d, device=_DEVICE)
     set_nodes(k, g, static.wide, static.node_link, top, origin, ns)
+    static.add_leaves(k, g, origin)
     return g

@@ -115,7 +115,8 @@ class Renderer:
         in its comoving coordinates, a 4D top level over its motion segments), "prism"
         (the default in float64: one comoving triangle test per extruded prism) or
         "tet" (three tetrahedra per prism, the general path); all give the same images
-        to float32 rounding.
+        to float32 rounding. Deforming bodies are tetrahedra on the rigid path too (its
+        second leaf kind, spacetime/mixed.py); in float64 their scenes default to "tet".
     quadrics: "exact" (the default on the rigid path: a body whose one surface is a
         UsdGeom.Sphere is traced as its exact ellipsoid, spacetime/rigid.py) or
         "tessellated" (every sphere as triangles within half a pixel; the only choice on
@@ -196,8 +197,11 @@ class Renderer:
         # The rigid path's bottom-level queries are float32: in float64 it serves only scenes
         # whose every body is an exact quadric (then it is exact in float64).
         all_exact = quadrics != "tessellated" and all_exact_quadrics(scene)
-        # deforming bodies: tetrahedra (docs/spec.md §2.2); turning ones too, unless exact quadrics are asked for
-        primitive = deform_primitive(scene, primitive, worldlines=quadrics != "exact")
+        # Turning bodies become per-vertex worldlines (spacetime/turning.py) unless the pieces'
+        # path is asked for (primitive "rigid" or "prism") or exact quadrics; deforming bodies
+        # are tetrahedra, as rigid-path leaves in float32 (docs/spec.md §2.1, §2.2).
+        self._worldlines = quadrics != "exact" and primitive in (None, "tet")
+        primitive = deform_primitive(scene, primitive, self.precision == Precision.FLOAT32, worldlines=self._worldlines)
         if primitive is None:
             primitive = "rigid" if self.precision == Precision.FLOAT32 or all_exact else "prism"
         if primitive == "rigid" and self.precision != Precision.FLOAT32 and not all_exact:
@@ -266,7 +270,7 @@ class Renderer:
         (``database_cache``), else built now and cached on the scene."""
         from warp_st.kernels import get_kernels
         from warp_st.rendering.device import StaticArrays
-        from warp_st.rendering.device_rigid import RigidArrays
+        from warp_st.rendering.device_mixed import rigid_arrays
 
         wp = init_warp()
         t0 = time.perf_counter()
@@ -281,7 +285,7 @@ class Renderer:
         reach = functools.partial(motion_reach, cameras=cams, infinite_modes=[m == LightSpeed.INFINITE for m in modes],
                                   max_depth=self.max_depth, shutter=shutter)
         self.animation = animation_cuts(self.scene, ends, width=self.width, height=self.height, reach=reach,
-                                        worldlines=self.primitive == "tet")  # turning bodies: spacetime/turning.py
+                                        worldlines=self._worldlines)  # turning bodies: spacetime/turning.py
         self.object_of = None  # the scene body of each rendered body (None: the same)
         if self.animation:  # the cache holds the bodies only: an entry must not keep its scene alive
             bodies, self.object_of = cache.tessellated(("animation", self.animation),
@@ -334,13 +338,13 @@ class Renderer:
         else:
             cache.use(db)
         tc = time.perf_counter()
-        self.kernels = get_kernels(self.precision.value, self.primitive)
+        self.kernels = get_kernels(self.precision.value, self.primitive, db.tets is not None)
         wp.load_module(self.kernels.pixels(bool(self.scene.lights)).module, device="cpu")
         self.stats.compile_seconds = time.perf_counter() - tc
         t3 = time.perf_counter()
         if self.precision.value not in db.static:
             db.static[self.precision.value] = (
-                RigidArrays(self.kernels, db.shapes, db.bottom, db.segments, db.bvh) if self.primitive == "rigid"
+                rigid_arrays(self.kernels, db) if self.primitive == "rigid"
                 else StaticArrays(self.kernels, db.mesh, db.bvh))
         self.database = db
         self.static = db.static[self.precision.value]
@@ -348,7 +352,7 @@ class Renderer:
         self.memory_estimate = db.nbytes + pixels * BYTES_PER_PIXEL
         self.fine_segments = db.fine
         s = self.stats
-        s.tetrahedra = db.mesh.tet_count if db.mesh is not None else 0
+        s.tetrahedra = db.mesh.tet_count if db.mesh is not None else db.tets[0].tet_count if db.tets else 0
         s.primitives = db.mesh.prim_count if db.mesh is not None else db.segments.count
         s.triangles = db.shapes.triangle_count if db.shapes is not None else 0
         s.segments = db.segments.count if db.segments is not None else 0
@@ -392,23 +396,33 @@ class Renderer:
         """The rigid database over ``windows``: the tessellation's shapes and bottom levels
         (cached on the scene apart, built on first use) under a new top level."""
         from warp_st.accel.instances import bottom_levels, build_top_level
+        from warp_st.rendering.database_mixed import shapes_key, tet_leaves
+        from warp_st.spacetime.mixed import has_deforming, rigid_part
         from warp_st.spacetime.rigid import motion_segments, rigid_shapes
 
+        mixed = has_deforming(scene)  # deforming bodies: tetrahedra as leaves beside the instances
+        rigid = rigid_part(scene) if mixed else scene
+
         def shapes_and_bottom():
-            shapes = rigid_shapes(scene, exact_quadrics=self.exact_quadrics)
+            shapes = rigid_shapes(rigid, exact_quadrics=self.exact_quadrics)
             return bottom_levels(shapes)  # the shapes renumbered into the bottom levels' leaf order
 
-        nbytes = check_resources(scene, windows, width=self.width, height=self.height, samples=self.samples,
-                                 max_depth=self.max_depth, max_memory=self.max_memory, rigid=True)
-        nbytes -= self.width * self.height * BYTES_PER_PIXEL
-        shapes, bottom = cache.shapes(tessellation, shapes_and_bottom)
-        segments = motion_segments(scene, shapes, windows)
+        limits = dict(width=self.width, height=self.height, samples=self.samples, max_depth=self.max_depth,
+                      max_memory=self.max_memory)
+        nbytes = check_resources(rigid, windows, rigid=True, **limits) - self.width * self.height * BYTES_PER_PIXEL
+        shapes, bottom = cache.shapes(shapes_key(tessellation), shapes_and_bottom)
+        segments = motion_segments(rigid, shapes, windows)
+        tets = None
+        if mixed:
+            tets, shapes, segments, tet_bytes = tet_leaves(scene, windows, shapes, segments, view=self.slice_view,
+                                                           rigid_bytes=nbytes, **limits)
+            nbytes += tet_bytes
         top = build_top_level(segments)
         built = _BuildStats(extrude_seconds=time.perf_counter() - t0 - top.build_seconds,
                             bvh_seconds=top.build_seconds)
         return database_cache.Database(tessellation=tessellation, primitive="rigid", fine=True, windows=windows,
                                        bvh=top, segments=segments, shapes=shapes, bottom=bottom, stats=built,
-                                       nbytes=nbytes)
+                                       nbytes=nbytes, tets=tets)
 
     def describe(self) -> dict:
         s = self.stats

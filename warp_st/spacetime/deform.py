@@ -176,16 +176,17 @@ def deformed_triangles(body: Body, bt, longest_edges):
     return dataclasses.replace(bt, tri_smooth=np.ones(len(bt.triangles), np.int32), tri_size=size)
 
 
-def deform_primitive(scene, primitive: str | None, worldlines: bool = True) -> str | None:
-    """The renderer's primitive for ``scene``: "tet" when a body deforms (its prisms are not
-    rigid: only their tetrahedra are exact) and none or "tet" was asked, else ``primitive``.
-    A turning body traced as per-vertex worldlines (``turning.worldline_body``) also makes
-    "tet" the default unless ``worldlines`` is False (exact quadrics asked for: the rigid
-    path); asked for "rigid" or "prism" it is cut into pieces instead."""
-    body = next((b for b in scene.bodies if deforming(b)), None)
-    if body is None and primitive is None and worldlines and any(worldline_body(b) for b in scene.bodies):
-        return "tet"
-    if body is None or primitive in (None, "tet"):
-        return primitive if body is None else "tet"
+def deform_primitive(scene, primitive: str | None, rigid: bool = True, worldlines: bool = True) -> str | None:
+    """The renderer's primitive for ``scene`` when a body deforms, or turns and is traced as
+    per-vertex worldlines (``turning.worldline_body``, with ``worldlines``): its prisms are
+    not rigid (only their tetrahedra are exact), so "prism" is an error; "rigid" traces the
+    deforming bodies' tetrahedra as leaves of the two-level path (``spacetime.mixed``), the
+    default where the rigid path is (``rigid``: float32), else "tet". Without one: ``primitive``."""
+    body = next((b for b in scene.bodies if deforming(b) or (worldlines and worldline_body(b))), None)
+    if body is None or primitive in ("tet", "rigid"):
+        return primitive
+    if primitive is None:
+        return None if rigid else "tet"
     raise SceneError.at(scene.source, body.prim_path, "primitive",
-                        f"a deforming body is traced on the tet path only (got {primitive!r}); use primitive='tet'")
+                        f"a deforming body is traced on the tet or rigid path only (got {primitive!r}); "
+                        "use primitive='rigid' or 'tet'")
