@@ -1,7 +1,9 @@
 """The per-pixel megakernel: camera ray on the past lightcone, closest hit, shading, AOVs.
 
 Pure Warp device code; the host (``warp_st.rendering.renderer``) fills the structs. All events are
-relative to the render origin (the camera event), so large absolute times cost nothing.
+relative to the render origin (the geometry's anchor, a grid point near the camera event:
+``rendering/anchor.py``; the camera event is ``Camera.origin`` from it), so large absolute
+times cost nothing; the film's times are relative to the camera event.
 """
 
 import functools
@@ -97,6 +99,9 @@ def _make_render(scalar, k, trace, Geometry):
         height: int
         velocity: vec3
         gamma: scalar
+        # The camera event relative to the geometry's anchor (rendering/anchor.py): the rays'
+        # origin; the film's times stay relative to the camera event.
+        origin: vec4
         moving: int
         decoupled: int
         finite: int
@@ -196,7 +201,7 @@ def _make_render(scalar, k, trace, Geometry):
     def sample_ray(cam: Camera, px: int, py: int, k: int, pixel: int):
         """Sample k of a pixel: stratified jitter in the pixel and in camera time.
 
-        Returns the ray origin (tau, v_cam tau) relative to the frame's camera event and
+        Returns the ray origin, the camera event moved by (tau, v_cam tau), relative to the anchor, and
         the lab direction. Seeded per (pixel, sample): reproducible bit for bit.
         """
         state = wp.rand_init(cam.seed, pixel * cam.samples + k)
@@ -207,7 +212,7 @@ def _make_render(scalar, k, trace, Geometry):
         tau = (scalar(kt) + scalar(wp.randf(state))) / scalar(cam.samples) * cam.shutter
         n = camera_direction(cam, scalar(px) + sx, scalar(py) + sy)
         o = vec4(tau, tau * cam.velocity[0], tau * cam.velocity[1], tau * cam.velocity[2])
-        return o, n
+        return cam.origin + o, n
 
     @wp.func
     def no_lights(geo: Geometry, shd: Shading, finite: int, prim: int, path: scalar, event: vec4, normal: vec3,
@@ -376,7 +381,7 @@ def _make_render(scalar, k, trace, Geometry):
                 u0 = vec3(scalar(0.0))
                 gamma0 = scalar(1.0)
                 for k in range(rays):
-                    ray_o = vec4(scalar(0.0))
+                    ray_o = cam.origin
                     ray_n = n
                     if k > 0:
                         ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
@@ -431,17 +436,18 @@ def _make_render(scalar, k, trace, Geometry):
                 event = vec4(dt, s * n[0], s * n[1], s * n[2])
                 film.depth[pixel] = rest_distance(cam, dt, vec3(event[1], event[2], event[3]))
                 film.event_time[pixel] = event[0]
-                film.source_time[pixel] = src_t
+                film.source_time[pixel] = src_t - cam.origin[0]  # trace_path's events are the anchor's
                 film.bounces[pixel] = src_b
 
                 body = shd.tri_body[prim_triangle(geo, prim)]
                 bo = shd.body_origin[body]
                 v = shd.body_velocity[body]
                 dec = shd.body_decoupled[body]
-                rel_t = event[0] - bo[0]
+                at = event + cam.origin  # the event relative to the anchor, as the body tables are
+                rel_t = at[0] - bo[0]
                 tau = rel_t
                 if dec == 0:
-                    rel_x = vec3(event[1] - bo[1], event[2] - bo[2], event[3] - bo[3])
+                    rel_x = vec3(at[1] - bo[1], at[2] - bo[2], at[3] - bo[3])
                     tau = shd.body_gamma[body] * (rel_t - wp.dot(v, rel_x))
                 film.proper_time[pixel] = tau
 

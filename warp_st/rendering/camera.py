@@ -43,10 +43,13 @@ def make_camera(
     samples: int = 1,
     shutter: float = 0.0,
     seed: int = 0,
+    origin=(0.0, 0.0, 0.0, 0.0),
 ):
     """Kernel camera. samples > 1 jitters rays in the pixel (a strata x strata grid) and
-    in camera time over [t_c, t_c + shutter] (4D anti-aliasing and motion blur)."""
+    in camera time over [t_c, t_c + shutter] (4D anti-aliasing and motion blur). ``origin``:
+    the camera event relative to the geometry's anchor (``rendering.anchor``), the rays' origin."""
     c = k.Camera()
+    c.origin = k.vec4(*[float(x) for x in origin])
     c.lab_from_camera = wp.mat33d(*np.asarray(cam.rotation, dtype=np.float64).reshape(-1).tolist())
     c.focal = float(cam.focal_length)
     c.h_ap = float(cam.horizontal_aperture)

@@ -455,6 +455,7 @@ class Renderer:
 
     def render(self, frame=None, *, threads: int | None = None) -> Image:
         """Render one frame (a USD time code) to an :class:`Image`."""
+        from warp_st.rendering.anchor import anchor_step, geometry_anchor
         from warp_st.rendering.camera import make_camera
         from warp_st.rendering.device import make_geometry, make_shading
         from warp_st.rendering.device_rigid import make_rigid_geometry
@@ -469,7 +470,9 @@ class Renderer:
         cam = self._cameras[frame]
         t_start = time.perf_counter()
         k = self.kernels
-        origin = np.array([cam.time, *cam.position], dtype=np.float64)
+        event = np.array([cam.time, *cam.position], dtype=np.float64)
+        # the database recentred on a grid point near the camera event (rendering/anchor.py)
+        origin = geometry_anchor(event, anchor_step(self.bvh.node_lo[0], self.bvh.node_hi[0]))
         if self.primitive == "rigid":
             def make():
                 return make_rigid_geometry(k, self.static, self.segments, self.bvh, origin)
@@ -484,11 +487,11 @@ class Renderer:
             return (make_shading(k, self.static, self.scene.lights, origin, background, self.max_depth,
                                  doppler_color=self.doppler_color, searchlight=self.searchlight, dome=self.scene.dome),
                     make_camera(k, cam, self.width, self.height, light_speed, samples=self.samples,
-                                shutter=self._lab_shutter))
+                                shutter=self._lab_shutter, origin=event - origin))
 
         key = (self.precision.value, camera_key(cam), self.width, self.height, light_speed.value, self.samples,
                self._lab_shutter, tuple(float(x) for x in background), self.max_depth, self.doppler_color,
-               self.searchlight)
+               self.searchlight, tuple(origin.tolist()))
         shd, kcam = frame_inputs.structs(self.database, key, make_structs)
         n_pix = self.width * self.height
         frame_inputs.keep_only(database_cache.for_scene(self.scene).databases, self.database)
