@@ -440,14 +440,13 @@ def _make_render(scalar, k, trace, Geometry):
                 film.bounces[pixel] = src_b
 
                 body = shd.tri_body[prim_triangle(geo, prim)]
-                bo = shd.body_origin[body]
+                bo = shd.body_clock[body]  # relative to the camera event, as ``event`` is
                 v = shd.body_velocity[body]
                 dec = shd.body_decoupled[body]
-                at = event + cam.origin  # the event relative to the anchor, as the body tables are
-                rel_t = at[0] - bo[0]
+                rel_t = event[0] - bo[0]
                 tau = rel_t
                 if dec == 0:
-                    rel_x = vec3(at[1] - bo[1], at[2] - bo[2], at[3] - bo[3])
+                    rel_x = vec3(event[1] - bo[1], event[2] - bo[2], event[3] - bo[3])
                     tau = shd.body_gamma[body] * (rel_t - wp.dot(v, rel_x))
                 film.proper_time[pixel] = tau
 

@@ -48,6 +48,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         mat_metallic: wp.array(dtype=scalar)
         tex: Textures  # the materials' textures (kernels/texture.py)
         body_origin: wp.array(dtype=vec4)  # (t_ref, o) relative to the render origin
+        body_clock: wp.array(dtype=vec4)  # (t_ref, o) relative to the camera event (proper time)
         body_velocity: wp.array(dtype=vec3)
         body_gamma: wp.array(dtype=scalar)
         body_decoupled: wp.array(dtype=wp.int32)

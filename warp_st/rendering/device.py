@@ -173,9 +173,11 @@ def make_shading(
     doppler_color: bool = False,
     searchlight: bool = False,
     dome=None,
+    camera_event=None,
 ):
     """Shading struct: materials, bodies and lights, positions recentred on ``origin``;
-    ``dome``: the scene's sky (a ``Dome``) or None."""
+    ``dome``: the scene's sky (a ``Dome``) or None; ``camera_event``: (t_c, c), the proper
+    time's bodies' reference events are taken from it, as the film's events are (None: ``origin``)."""
     ns = static.np_scalar
     s = k.Shading()
     s.vert_normal = static.vert_normal
@@ -189,6 +191,8 @@ def make_shading(
     s.mat_metallic = static.mat_metallic
     s.tex = static.textures
     s.body_origin = wp.array((static.body_events - origin).astype(ns).reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
+    clock = origin if camera_event is None else np.asarray(camera_event, dtype=np.float64)
+    s.body_clock = wp.array((static.body_events - clock).astype(ns).reshape(-1, 4), dtype=k.vec4, device=_DEVICE)
     s.body_velocity = static.body_velocity
     s.body_gamma = static.body_gamma
     s.body_decoupled = static.body_decoupled

@@ -485,7 +485,8 @@ class Renderer:
 
         def make_structs():
             return (make_shading(k, self.static, self.scene.lights, origin, background, self.max_depth,
-                                 doppler_color=self.doppler_color, searchlight=self.searchlight, dome=self.scene.dome),
+                                 doppler_color=self.doppler_color, searchlight=self.searchlight, dome=self.scene.dome,
+                                 camera_event=event),
                     make_camera(k, cam, self.width, self.height, light_speed, samples=self.samples,
                                 shutter=self._lab_shutter, origin=event - origin))
 
