@@ -8,7 +8,8 @@ Laws:
   event's rest time t' (addition 0.8.0);
 - a "rest" body whose rest-frame motion is no motion (static, or xformOps time-sampled to
   stand still) renders as the same body with plain spacetime:fourVelocity: masks equal
-  off the silhouette, eventTime and properTime within 1e-3.
+  off the silhouette, eventTime and properTime within 1e-3, the Doppler factor within 1e-4
+  (its points emit with gamma of their own velocity, 0.8.0).
 """
 import numpy as np
 import pytest
@@ -73,4 +74,7 @@ def test_rest_body_without_motion_is_the_plain_four_velocity_body(tmp_path, spin
         assert np.abs(a.event_time[both] - u.event_time[both]).max() <= 1e-3
         # the coupled body's proper time (§2) is the rest body's t' (0.8.0): within float32 of ~10
         assert np.abs(a.proper_time[both] - u.proper_time[both]).max() <= 1e-3
+        # its points' four-velocity is gamma(u) (1, u), as the coupled body's (a coupled deforming
+        # body's Doppler, §2.1 0.8.0): D equal within float32 (chord velocities of exact samples)
+        assert np.abs(a.doppler[both] - u.doppler[both]).max() <= 1e-4
     assert seen > 300

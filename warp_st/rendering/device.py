@@ -57,7 +57,8 @@ class ShadingTables:
             np.array([b.velocity for b in bodies], dtype=np_scalar).reshape(-1, 3), dtype=k.vec3, device=_DEVICE
         )
         # A rest-frame body (§2.1) is traced decoupled, but its proper time is the event's t' in S'
-        # (the coupled formula); its point velocities carry gamma 1, so its Doppler is unchanged.
+        # (the coupled formula), and as a coupled deforming body its points emit with gamma of
+        # their own velocity (kernels/shade.py point_velocity; 0.7.0 gave them gamma 1).
         gammas = [1.0 / np.sqrt(1.0 - b.speed**2) if b.rest_frame else b.gamma for b in bodies]
         self.body_gamma = wp.array(np.array(gammas, dtype=np_scalar), dtype=k.scalar, device=_DEVICE)
         self.body_decoupled = wp.array(
