@@ -11,8 +11,8 @@ camera's own offset from it, at most G / 2 per axis, is the rays' origin.
 Precision. A coordinate at distance d from the camera is at most d + 2G from the anchor (four
 axes of at most G / 2 each), so its float32 rounding grows from eps d to at most eps (d + 2G).
 G = the power of two at or above the database's largest finite 4D extent (its top-level
-root box; c = 1) / ANCHOR_CELLS: the added rounding is at most eps x extent / 8 (eps = 2^-24
-relative), 0.01 ppm of the database's size, and a camera at rest in time-sampled motion
+root box; c = 1) / ANCHOR_CELLS, so G < extent / 8 and the added rounding is at most
+eps x extent / 4 (eps = 2^-24 relative: 0.015 ppm of the database's size), and a camera at rest in time-sampled motion
 recentres once per G of lab time rather than every frame. Without a finite extent the anchor
 is the camera event itself (as before 0.8.0).
 """
