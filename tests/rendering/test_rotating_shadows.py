@@ -88,7 +88,7 @@ def _rod_coordinates(p, t):
     return np.stack([q[..., 0] * c - q[..., 2] * s, q[..., 1], q[..., 0] * s + q[..., 2] * c], axis=-1)
 
 
-@pytest.mark.parametrize("primitive", [None, "rigid"])  # per-vertex worldlines (tet, the default) and pieces
+@pytest.mark.parametrize("primitive", [None, "rigid"])  # per-vertex worldlines (the default: tetrahedra leaves) and pieces
 @pytest.mark.parametrize("light", sorted(LIGHTS))
 @pytest.mark.parametrize("frame", [16.0, 17.5])  # events at t ~ 6-8: inside the samples
 def test_a_rotating_rod_shadows_itself_where_the_march_says(tmp_path, frame, light, primitive):

@@ -117,6 +117,9 @@ class Renderer:
         "tet" (three tetrahedra per prism, the general path); all give the same images
         to float32 rounding. Deforming bodies are tetrahedra on the rigid path too (its
         second leaf kind, spacetime/mixed.py); in float64 their scenes default to "tet".
+        A turning body traced as per-vertex worldlines by default (spacetime/turning.py) is
+        cut into pieces of uniform motion instead when "rigid" or "prism" is asked for
+        explicitly, or quadrics="exact".
     quadrics: "exact" (the default on the rigid path: a body whose one surface is a
         UsdGeom.Sphere is traced as its exact ellipsoid, spacetime/rigid.py) or
         "tessellated" (every sphere as triangles within half a pixel; the only choice on
