@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,7 +26,7 @@ import warp_st.rendering.device_rigid as device_rigid
 from warp_st.rendering.anchor import ANCHOR_CELLS, anchor_step, geometry_anchor
 from warp_st.rendering.renderer import Renderer
 
-ROOT = __import__("pathlib").Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[2]
 W, H = 64, 36
 
 

@@ -55,7 +55,8 @@ def _clipped_and_full(path, monkeypatch, frame=60.0, width=64, height=48, **opti
 #: pieces at rest, which join the floor's motion group (spacetime/rigid.py: one group's
 #: queries start where a ray enters the group's rest box, so bodies in contact round alike).
 #: The floor's query then starts at another point of the same float32 ray: its hits agree to
-#: the rounding of that start and of t from it, a few float32 ulps (16 allowed), not bit for bit.
+#: the rounding of that start and of t from it, a few float32 ulps (measured 8 at frame 60: depth
+#: 6.7e-6 of 14.65; 16 allowed), not bit for bit.
 ROUNDING_ULPS = {"spinning_rod": 16}
 
 
