@@ -25,3 +25,57 @@ def Sphere "B"
     shapes = rigid_shapes(warp_st.load(write(tmp_path, "plain.usda", stage)))
     assert shapes.triangle_count > 12
     assert shapes.tri_st.shape == (0, 3, 2)
+
+
+def _copies():
+    """Four translated copies of one tessellated sphere (points on a 1/1024 grid and whole
+    offsets, so every copy's points about its pivot are the same bits: instances), each
+    its own material; the last two move at 0.6c (coupled: contracted)."""
+    import numpy as np
+
+    from warp_st.core import tessellate
+    from warp_st.core.scene import Body, Material, RenderSettings, Scene, Surface
+
+    pts, tris, nrm = tessellate.sphere(1.0, 12)
+    pts = np.round(pts * 1024.0) / 1024.0
+    bodies = []
+    for i in range(4):
+        centre = np.array([3.0 * i - 5.0, 1.0 * i, -12.0 - 2.0 * i])
+        v = np.array([0.6, 0.0, 0.0]) if i >= 2 else np.zeros(3)
+        surf = Surface(f"/S{i}", pts + centre, tris, Material(diffuse=(0.1 + 0.2 * i, 0.5, 0.5)), nrm)
+        bodies.append(Body(f"/S{i}", (surf,), centre, v, 0.0))
+    return Scene(source="<copies>", bodies=tuple(bodies), lights=(), cameras=(), settings=RenderSettings())
+
+
+def test_instances_share_their_shading_tables_but_not_their_materials(monkeypatch):
+    """Law: bodies whose surfaces agree about their pivots in float32 and that share a
+    contraction share one computation of the shading tables (extrude.body_triangles'
+    memo): their facet normals and sizes are the same rows bit for bit, and within float32
+    rounding of each body's own (float64 tables: no memo); each keeps its own material.
+    Bodies with another contraction get their own (contracted) tables."""
+    import numpy as np
+
+    from warp_st.spacetime import extrude
+
+    scene = _copies()
+    made = []
+    compute = extrude._body_triangles
+    monkeypatch.setattr(extrude, "_body_triangles", lambda body, *a: made.append(body.prim_path) or compute(body, *a))
+    shared = rigid_shapes(scene)
+    assert made == ["/S0", "/S2"]  # one computation per contraction
+    own = rigid_shapes(scene, dtype=np.float64)  # every body computed on its own
+    assert len(made) == 6
+    n = len(scene.bodies[0].surfaces[0].triangles)
+    rows = [slice(int(shared.body_tri_base[b]), int(shared.body_tri_base[b]) + n) for b in range(4)]
+
+    assert np.array_equal(shared.tri_normal[rows[0]], shared.tri_normal[rows[1]])
+    assert np.array_equal(shared.tri_normal[rows[2]], shared.tri_normal[rows[3]])
+    assert not np.allclose(shared.tri_normal[rows[0]], shared.tri_normal[rows[2]], atol=1e-3)
+    for b in range(4):
+        # float32 rounding of unit vectors and sizes ~1: a few 1e-7.
+        np.testing.assert_allclose(shared.tri_normal[rows[b]], own.tri_normal[rows[b]], rtol=0, atol=1e-6)
+        np.testing.assert_allclose(shared.tri_size[rows[b]], own.tri_size[rows[b]], rtol=1e-6)
+    materials = [shared.materials[m].diffuse for m in shared.tri_material[[r.start for r in rows]]]
+    assert [round(c[0], 3) for c in materials] == [0.1, 0.3, 0.5, 0.7]
+    # Each body's lab box is its own: the copies are 3 apart along x.
+    np.testing.assert_allclose(shared.body_box_lo[[1, 3], 0] - shared.body_box_lo[[0, 2], 0], 3.0, rtol=0, atol=1e-12)

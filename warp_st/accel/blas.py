@@ -38,6 +38,7 @@ import numpy as np
 
 from warp_st.accel.bvh import build_bvh
 from warp_st.accel.bvh_wide import collapse, wide_boxes
+from warp_st.core.extent import column_max, column_min
 from warp_st.kernels.layout import LINK_SHIFT, WIDTH
 from warp_st.spacetime.rigid import RigidShapes, renumbered
 
@@ -51,7 +52,7 @@ def shape_tree(points: np.ndarray, triangles: np.ndarray):
     # Pairwise, not a reduction over an axis of three (ten times slower in NumPy).
     lo3 = np.minimum(np.minimum(a, b), c).astype(np.float64)
     hi3 = np.maximum(np.maximum(a, b), c).astype(np.float64)
-    size = float(np.max(hi3.max(axis=0) - lo3.min(axis=0))) if len(triangles) else 1.0
+    size = float(np.max(column_max(hi3) - column_min(lo3))) if len(triangles) else 1.0
     span = 1.0e3 * max(size, 1.0e-30)
     n = len(triangles)
     prim_lo = np.concatenate([np.zeros((n, 1)), lo3], axis=1)
@@ -124,19 +125,21 @@ class BottomLevels:
         traced[body_shape[(body_shape >= 0) & (quadric == 0)]] = True
         qs, frames, links, vidx, points, roots, firsts, self.orders = [], [], [], [], [], [], [], []
         node_base = tri_base = vert_base = 0
-        for s, (rest, tris) in enumerate(zip(shapes.shape_rest, shapes.shape_triangles)):
-            tris = np.asarray(tris, dtype=np.int32).reshape(-1, 3)
-            pts = np.asarray(rest, dtype=np.float64).astype(np.float32)
+        shape_points = [np.asarray(rest, dtype=np.float64).astype(np.float32) for rest in shapes.shape_rest]
+        shape_tris = [np.asarray(tris, dtype=np.int32).reshape(-1, 3) for tris in shapes.shape_triangles]
+        trees = _trees([(p, t) if len(t) and traced[s] else None
+                        for s, (p, t) in enumerate(zip(shape_points, shape_tris))])
+        for s, (pts, tris, tree) in enumerate(zip(shape_points, shape_tris, trees)):
             firsts.append(vert_base)
             points.append(pts)
             vert_base += len(pts)
-            if len(tris) == 0 or not traced[s]:
+            if tree is None:
                 roots.append(-1)
                 self.orders.append(None)
                 vidx.append(tris)
                 tri_base += len(tris)
                 continue
-            q, frame, link, order = shape_tree(pts, tris)
+            q, frame, link, order = tree
             is_leaf = (link >= 0) & ((link & ((1 << LINK_SHIFT) - 1)) > 0)
             base = np.where(is_leaf, tri_base, node_base).astype(np.int64) << LINK_SHIFT
             links.append(np.where(link >= 0, link.astype(np.int64) + base, -1))
@@ -162,6 +165,18 @@ class BottomLevels:
         self.build_seconds = time.perf_counter() - t0
         self.nbytes = int(self.node_q.nbytes + self.node_frame.nbytes + self.node_link.nbytes + self.vidx.nbytes
                           + self.points.nbytes)
+
+
+def _trees(jobs: list) -> list:
+    """``shape_tree`` of each (points, triangles) job (None: no tree), two at a time on
+    two threads (the builder's launches run without the GIL) when there are several:
+    the trees are the same either way."""
+    if sum(j is not None for j in jobs) < 2:
+        return [None if j is None else shape_tree(*j) for j in jobs]
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=2, thread_name_prefix="warp_st-blas") as pool:
+        return list(pool.map(lambda j: None if j is None else shape_tree(*j), jobs))
 
 
 def leaf_order(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:

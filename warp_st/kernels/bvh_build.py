@@ -4,7 +4,9 @@ Each thread takes one node's contiguous range of the primitive order, bins the
 primitive centres along each of the four axes (t, x, y, z) in one pass (the trees are
 the same as binning axis by axis; the build of a 65k-triangle bottom level is 25 %
 faster: 71-76 ms against 95-101, medians of 7, alternated), evaluates the surface-area
-heuristic at every bin boundary and partitions its range in place. The 4D analogue of
+heuristic at every bin boundary and partitions its range in place: the order and the
+primitives' centres and boxes with it, so every pass reads them in sequence, not through
+the order (the same trees, the build of a 65k-triangle shape ~10 % faster). The 4D analogue of
 a box's surface area is the sum of its 3-volumes, e_t (e_x e_y + e_y e_z + e_z e_x) +
 e_x e_y e_z: for boxes sharing one time extent (bodies at rest) it orders splits like
 the 3D surface area does.
@@ -58,11 +60,10 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
         clo = vec4(BIG)
         chi = vec4(-BIG)
         for k in range(s0, s1):
-            p = order[k]
-            nlo = wp.min(nlo, plo[p])
-            nhi = wp.max(nhi, phi[p])
-            clo = wp.min(clo, centre[p])
-            chi = wp.max(chi, centre[p])
+            nlo = wp.min(nlo, plo[k])
+            nhi = wp.max(nhi, phi[k])
+            clo = wp.min(clo, centre[k])
+            chi = wp.max(chi, centre[k])
         best_cost = float(BIG)
         best_axis = int(-1)
         best_bin = int(-1)
@@ -82,10 +83,9 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                     box[b * 8 + c] = BIG
                     box[b * 8 + 4 + c] = -BIG
             for k in range(s0, s1):
-                p = order[k]
-                cp = centre[p]
-                lo = plo[p]
-                hi = phi[p]
+                cp = centre[k]
+                lo = plo[k]
+                hi = phi[k]
                 for axis in range(4):
                     if scales[axis] > 0.0:
                         b = axis * BINS + bin_of(cp[axis], clo[axis], scales[axis])
@@ -134,12 +134,21 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
             lo_i = s0
             hi_i = s1 - 1
             while lo_i <= hi_i:
-                if bin_of(centre[order[lo_i]][best_axis], clo[best_axis], scale) <= best_bin:
+                if bin_of(centre[lo_i][best_axis], clo[best_axis], scale) <= best_bin:
                     lo_i += 1
                 else:
                     tmp = order[lo_i]
                     order[lo_i] = order[hi_i]
                     order[hi_i] = tmp
+                    tc = centre[lo_i]
+                    centre[lo_i] = centre[hi_i]
+                    centre[hi_i] = tc
+                    tl = plo[lo_i]
+                    plo[lo_i] = plo[hi_i]
+                    plo[hi_i] = tl
+                    th = phi[lo_i]
+                    phi[lo_i] = phi[hi_i]
+                    phi[hi_i] = th
                     hi_i -= 1
             if lo_i > s0 and lo_i < s1:
                 mid = lo_i

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from warp_st.core.extent import column_max, column_min
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Scene
 from warp_st.kernels.quadrics import QUADRIC_CAPSULE, QUADRIC_CONE, QUADRIC_CYLINDER, QUADRIC_SPHERE
@@ -256,11 +257,30 @@ def _held(bt, dtype):
                                tri_st=bt.tri_st.astype(dtype) if bt.tri_st.any() else None)
 
 
+def _held_triangles(bodies: tuple, materials: list, mat_index: dict, dtype) -> list:
+    """Every body's ``_held`` triangles (None: none). With float32 tables, instances
+    (``body_triangles``' memo: the same surfaces about their pivots in float32) share
+    their held tables, each with its own ``rest``, ``local`` and materials."""
+    memo = {} if np.dtype(dtype) == np.float32 else None
+    held: dict = {}  # id of a shared triangle table -> (that table, its held triangles)
+    found = []
+    for b in bodies:
+        bt = body_triangles(b, materials, mat_index, memo) if b.surfaces else None
+        if bt is None:
+            found.append(None)
+            continue
+        if id(bt.triangles) not in held:
+            held[id(bt.triangles)] = (bt.triangles, _held(bt, dtype))
+        found.append(dataclasses.replace(held[id(bt.triangles)][1], rest=bt.rest, local=bt.local,
+                                         tri_material=bt.tri_material.astype(np.int32)))
+    return found
+
+
 def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
     materials: list = []
     mat_index: dict = {}
     n_bodies = len(bodies)
-    found = [_held(body_triangles(b, materials, mat_index), dtype) if b.surfaces else None for b in bodies]
+    found = _held_triangles(bodies, materials, mat_index, dtype)
     keys = [None if bt is None else (bt.rest.astype(np.float32).tobytes(), bt.triangles.astype(np.int32).tobytes())
             for bt in found]
     uses: dict = {}
@@ -313,9 +333,9 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
             shape_rest.append((bt.rest @ unturn if piece else rest).astype(np.float32))
             shape_tris.append(bt.triangles.astype(np.int32))
         body_shape[i] = shapes[key]
-        box_lo[i], box_hi[i] = bt.local.min(axis=0), bt.local.max(axis=0)
+        box_lo[i], box_hi[i] = column_min(bt.local), column_max(bt.local)
         pad = REST_BOX_PAD * (1.0 + float(np.abs(rest).max()))
-        rest_lo[i], rest_hi[i] = rest.min(axis=0) - pad, rest.max(axis=0) + pad
+        rest_lo[i], rest_hi[i] = column_min(rest) - pad, column_max(rest) + pad
         if quadric_body(body, exact_quadrics):
             # The shape M q + t, held in the shape's frame: its centre moves as the points
             # did. Boxes: the extent of M q over the canonical box |q_k| <= e_k along axis

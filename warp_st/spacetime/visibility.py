@@ -26,8 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.deform import deforming, surface_hull_points
+from warp_st.core.extent import column_max, column_min, row_squares, transformed
+from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Body, CameraState, Scene, surface_triangles
 
 __all__ = ["body_ball", "body_pieces", "frame_window", "frame_windows", "hull", "intervals", "union", "intersection", "span",
@@ -42,9 +43,9 @@ def body_ball(body: Body) -> tuple[np.ndarray, float]:
     """Centre m0 (lab, at t_ref) and radius rho of a ball holding the contracted body."""
     pts = np.concatenate([surface_hull_points(s) for s in body.surfaces]) if body.surfaces else np.zeros((1, 3))
     A = contraction_matrix(body.velocity, body.decoupled)
-    local = (pts - body.origin) @ A.T + body.origin
-    m0 = 0.5 * (local.min(axis=0) + local.max(axis=0))
-    rho = float(np.sqrt(((local - m0) ** 2).sum(axis=1).max()))
+    local = transformed(pts - body.origin, A) + body.origin
+    m0 = 0.5 * (column_min(local) + column_max(local))
+    rho = float(np.sqrt(row_squares(local - m0).max()))
     return m0, rho
 
 
