@@ -59,7 +59,7 @@ def shape_tree(points: np.ndarray, triangles: np.ndarray):
     prim_hi = np.concatenate([np.full((n, 1), span), hi3], axis=1)
     # Ranges of up to 4 triangles always become leaves: two levels fewer to build (a
     # third of the build), queries as fast within the spread of single runs.
-    bvh = build_bvh(prim_lo, prim_hi, "tri", leaf_size=4)
+    bvh = build_bvh(prim_lo, prim_hi, "tri", leaf_size=4, uniform_t=True)
     wide = collapse(bvh)
     lo16, hi16 = wide_boxes(wide, bvh.node_lo, bvh.node_hi)
     # One float32 step outward: a ray along a box's face with a zero direction component

@@ -62,11 +62,12 @@ class FlatBVH:
         return int(self.node_lo.nbytes // 2 + self.node_hi.nbytes // 2 + self.node_first.nbytes + self.node_count.nbytes)
 
 
-def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", *, leaf_size: int = LEAF_SIZE
-              ) -> FlatBVH:
+def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", *, leaf_size: int = LEAF_SIZE,
+              uniform_t: bool = False) -> FlatBVH:
     """Build the BVH over primitive boxes ``prim_lo``/``prim_hi`` of shape (N, 4);
     ``primitive`` picks the SAH intersection cost; ranges of ``leaf_size`` primitives or
-    fewer always become leaves (larger ones when the SAH says so)."""
+    fewer always become leaves (larger ones when the SAH says so). ``uniform_t``: every
+    box has the same time extent (a 3D build: the same tree, built faster)."""
     start_clock = time.perf_counter()
     n = len(prim_lo)
     if n == 0:
@@ -75,7 +76,8 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
         # anything else; bvh_wide.collapse gives one empty wide node).
         far = np.array([[np.inf, 0.0, 0.0, 0.0]])
         return FlatBVH(far, far.copy(), np.zeros(1, np.int32), np.zeros(1, np.int32), np.zeros(0, np.int64), 0, 0.0)
-    first, count, levels, order, depth = _sah_topology(prim_lo, prim_hi, SAH_COST_INTERSECT[primitive], leaf_size)
+    first, count, levels, order, depth = _sah_topology(prim_lo, prim_hi, SAH_COST_INTERSECT[primitive], leaf_size,
+                                                       uniform_t)
     lo, hi = _bounds(prim_lo, prim_hi, first, count, levels, order)
     return FlatBVH(
         node_lo=lo,
@@ -88,11 +90,11 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
     )
 
 
-def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int):
+def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, uniform_t: bool):
     """Node ranges by binned SAH, one Warp launch per tree level."""
     import warp as wp
 
-    kernel = _sah_kernel(cost_intersect, leaf_size)
+    kernel = _sah_kernel(cost_intersect, leaf_size, uniform_t)
     n = len(prim_lo)
     plo = wp.array(prim_lo.astype(np.float32), dtype=wp.vec4, device="cpu")
     phi = wp.array(prim_hi.astype(np.float32), dtype=wp.vec4, device="cpu")
@@ -163,13 +165,13 @@ def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, for
     return mids.numpy().astype(np.int64)
 
 
-def _sah_kernel(cost_intersect: float, leaf_size: int):
+def _sah_kernel(cost_intersect: float, leaf_size: int, uniform_t: bool = False):
     """The split kernel for one intersection cost and leaf size, built once per process."""
     from warp_st.kernels.bvh_build import make_sah_split
 
-    key = (cost_intersect, leaf_size)
+    key = (cost_intersect, leaf_size, uniform_t)
     if key not in _SAH_KERNELS:
-        _SAH_KERNELS[key] = make_sah_split(leaf_size, SAH_MAX_LEAF, SAH_COST_TRAVERSE, cost_intersect)
+        _SAH_KERNELS[key] = make_sah_split(leaf_size, SAH_MAX_LEAF, SAH_COST_TRAVERSE, cost_intersect, uniform_t)
     return _SAH_KERNELS[key]
 
 

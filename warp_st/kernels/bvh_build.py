@@ -19,7 +19,11 @@ __all__ = ["BINS", "make_sah_split"]
 BINS = 16
 
 
-def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_intersect: float):
+def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_intersect: float, uniform_t: bool = False):
+    """The split kernel; ``uniform_t``: every primitive has the same time extent (a 3D
+    build, ``accel/blas.py``), which the bins then take from the node instead of
+    reducing it per primitive (the same trees)."""
+    T0 = 1 if uniform_t else 0
     vec4 = wp.vec4
     bins_i = wp.types.vector(BINS, wp.int32)
     bins_f = wp.types.vector(BINS, wp.float32)
@@ -76,12 +80,11 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                 extent = chi[axis] - clo[axis]
                 if extent > 0.0:
                     scales[axis] = float(BINS) / extent
+            # A bin's box is set by its first primitive and read only when it holds one
+            # (its count), so no bin is initialised; the sweeps step over empty bins (a
+            # split at an empty bin has its neighbour's sets, cost and tie order).
             count = bins4_i()
             box = bins4_box()
-            for b in range(4 * BINS):
-                for c in range(4):
-                    box[b * 8 + c] = BIG
-                    box[b * 8 + 4 + c] = -BIG
             for k in range(s0, s1):
                 cp = centre[k]
                 lo = plo[k]
@@ -89,10 +92,21 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                 for axis in range(4):
                     if scales[axis] > 0.0:
                         b = axis * BINS + bin_of(cp[axis], clo[axis], scales[axis])
-                        count[b] = count[b] + 1
-                        for c in range(4):
-                            box[b * 8 + c] = wp.min(box[b * 8 + c], lo[c])
-                            box[b * 8 + 4 + c] = wp.max(box[b * 8 + 4 + c], hi[c])
+                        held = count[b]
+                        count[b] = held + 1
+                        if held == 0:
+                            for c in range(T0, 4):
+                                box[b * 8 + c] = lo[c]
+                                box[b * 8 + 4 + c] = hi[c]
+                        else:
+                            for c in range(T0, 4):
+                                box[b * 8 + c] = wp.min(box[b * 8 + c], lo[c])
+                                box[b * 8 + 4 + c] = wp.max(box[b * 8 + 4 + c], hi[c])
+            if wp.static(T0 == 1):
+                # Every primitive has the node's time extent: so has every bin holding one.
+                for b in range(4 * BINS):
+                    box[b * 8] = nlo[0]
+                    box[b * 8 + 4] = nhi[0]
             for axis in range(4):
                 if scales[axis] > 0.0:
                     o = axis * BINS
@@ -102,30 +116,34 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                     rlo = vec4(BIG)
                     rhi = vec4(-BIG)
                     rn = int(0)
+                    r_area = float(0.0)
                     for j in range(BINS - 1, 0, -1):
-                        q = (o + j) * 8
-                        rlo = wp.min(rlo, vec4(box[q + 0], box[q + 1], box[q + 2], box[q + 3]))
-                        rhi = wp.max(rhi, vec4(box[q + 4], box[q + 5], box[q + 6], box[q + 7]))
-                        rn = rn + count[o + j]
-                        right_area[j] = area4(rlo, rhi)
+                        if count[o + j] > 0:
+                            q = (o + j) * 8
+                            rlo = wp.min(rlo, vec4(box[q + 0], box[q + 1], box[q + 2], box[q + 3]))
+                            rhi = wp.max(rhi, vec4(box[q + 4], box[q + 5], box[q + 6], box[q + 7]))
+                            rn = rn + count[o + j]
+                            r_area = area4(rlo, rhi)
+                        right_area[j] = r_area
                         right_count[j] = rn
                     llo = vec4(BIG)
                     lhi = vec4(-BIG)
                     ln = int(0)
                     for j in range(BINS - 1):
-                        q = (o + j) * 8
-                        llo = wp.min(llo, vec4(box[q + 0], box[q + 1], box[q + 2], box[q + 3]))
-                        lhi = wp.max(lhi, vec4(box[q + 4], box[q + 5], box[q + 6], box[q + 7]))
-                        ln = ln + count[o + j]
-                        rn_j = right_count[j + 1]
-                        if ln > 0 and rn_j > 0:
-                            cost = cost_traverse + cost_intersect * (
-                                area4(llo, lhi) * float(ln) + right_area[j + 1] * float(rn_j)
-                            ) / parent_area
-                            if cost < best_cost:
-                                best_cost = cost
-                                best_axis = axis
-                                best_bin = j
+                        if count[o + j] > 0:
+                            q = (o + j) * 8
+                            llo = wp.min(llo, vec4(box[q + 0], box[q + 1], box[q + 2], box[q + 3]))
+                            lhi = wp.max(lhi, vec4(box[q + 4], box[q + 5], box[q + 6], box[q + 7]))
+                            ln = ln + count[o + j]
+                            rn_j = right_count[j + 1]
+                            if rn_j > 0:
+                                cost = cost_traverse + cost_intersect * (
+                                    area4(llo, lhi) * float(ln) + right_area[j + 1] * float(rn_j)
+                                ) / parent_area
+                                if cost < best_cost:
+                                    best_cost = cost
+                                    best_axis = axis
+                                    best_bin = j
             if n <= max_leaf and cost_intersect * float(n) <= best_cost:
                 return  # a leaf is cheaper
         mid = s0 + n / 2
