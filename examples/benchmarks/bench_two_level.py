@@ -13,6 +13,9 @@ drift between repetitions cancels; the CPU model heads the table.
 - trace:   closest hits only (the ``cast_rays`` probe through the two levels, no
   shading or film) against ``wp.Mesh`` and Embree (``embreex``, ``pip install -e '.[bench]'``;
   skipped with a line when absent) on the same rays (ratio = their time / ours);
+- shipped: closest hits only on static copies of shipped stages (the parade, the coupled
+  flanges, the aberration and sphere-and-cubes stages; every body at rest, spheres as
+  their triangles) against wp.Mesh and Embree over the same triangles and camera rays;
 - motion:  the same render with the spheres moving at 0.3-0.9c against at rest
   (ratio = moving time / resting time);
 - first:   the first render of a new 1.03M-triangle static scene (kernels cached)
@@ -44,10 +47,11 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+for _path in (ROOT, Path(__file__).resolve().parent):  # warp_st from this checkout; benchlib
+    if str(_path) not in sys.path:
+        sys.path.insert(0, str(_path))
 
-TABLES = ("static", "trace", "motion", "first", "cubes", "sequence")
+TABLES = ("static", "trace", "shipped", "motion", "first", "cubes", "sequence")
 #: The clock of the ray queries' timings (``MeshQueries.run``): wall time, or with
 #: ``--clock cpu`` the process's CPU time, which other jobs on a shared machine change far
 #: less (it sums both threads' on 2 threads: a cost, not a latency).
@@ -114,9 +118,9 @@ def cubes_scene(count: int, *, moving: bool, seed: int = 1):
     return dataclasses.replace(base, source="<bench:cubes>", bodies=tuple(bodies), lights=(sun,))
 
 
-def pixel_directions(scene, width, height):
-    """The renderer's primary ray directions (docs/spec.md §3 pinhole), float32 (N, 3)."""
-    cam = scene.camera_state(scene.default_camera, 0.0)
+def pixel_directions(scene, width, height, frame=0.0):
+    """The renderer's primary ray directions (docs/spec.md §3 pinhole) at ``frame``, float32 (N, 3)."""
+    cam = scene.camera_state(scene.default_camera, frame)
     i = np.arange(width) + 0.5
     j = np.arange(height) + 0.5
     h_ap = float(cam.horizontal_aperture)
@@ -129,9 +133,10 @@ def pixel_directions(scene, width, height):
 
 class MeshQueries:
     """wp.Mesh over every triangle of a static scene and closest-hit queries of rays from
-    the camera at the origin, launched in the renderer's tiles on 1 or 2 threads."""
+    the camera (at ``origin``, the world origin by default), launched in the renderer's
+    tiles on 1 or 2 threads."""
 
-    def __init__(self, scene, dirs):
+    def __init__(self, scene, dirs, origin=(0.0, 0.0, 0.0)):
         import warp as wp
 
         from warp_st.rendering.renderer import TILE_PIXELS
@@ -143,7 +148,7 @@ class MeshQueries:
         self.indices = np.concatenate([s.triangles + o for s, o in zip(surfaces, base)]).astype(np.int32).reshape(-1)
         n = len(dirs)
         self.dirs = wp.array(dirs, dtype=wp.vec3, device="cpu")
-        self.origins = wp.zeros(n, dtype=wp.vec3, device="cpu")
+        self.origins = wp.array(np.tile(np.asarray(origin, np.float32), (n, 1)), dtype=wp.vec3, device="cpu")
         self.face = wp.zeros(n, dtype=wp.int32, device="cpu")
         self.t = wp.zeros(n, dtype=wp.float32, device="cpu")
         self.tiles = [(o, min(o + TILE_PIXELS, n)) for o in range(0, n, TILE_PIXELS)]
@@ -199,7 +204,7 @@ class EmbreeQueries:
         self.mesh = mesh
         self.tri_points = np.ascontiguousarray(mesh.points[mesh.indices.reshape(-1, 3)], dtype=np.float32)
         self.dirs = np.ascontiguousarray(mesh.dirs.numpy(), dtype=np.float32)
-        self.origins = np.zeros_like(self.dirs)
+        self.origins = np.ascontiguousarray(mesh.origins.numpy(), dtype=np.float32)
         self.face = np.full(len(self.dirs), -1, np.int64)
         self.build()
         self.query(2)
@@ -331,6 +336,69 @@ def table_motion(args, log):
                                   spheres_scene(128, moving=True), args, log)
 
 
+#: Shipped stages for the closest-hit table (static copies), with the frame each is timed at.
+SHIPPED = (("relativistic_parade.usda", 0.0), ("mirrors/flanges_coupled.usda", 0.0), ("thesis/aberration.usda", 0.0),
+           ("thesis/sphere_and_cubes.usda", 0.0))
+
+
+def table_shipped(args, log):
+    """Closest hits on static copies of shipped stages (every body at rest, spheres as
+    their triangles): our two levels against wp.Mesh and Embree over the same triangles
+    and primary rays from the camera (``cast_rays``, no shading)."""
+    import warp as wp
+
+    import warp_st
+    from benchlib.scenes import fixed_tessellation, static_version
+    from warp_st.rendering.anchor import anchor_step, geometry_anchor
+    from warp_st.rendering.renderer import Renderer
+
+    rows = []
+    for stage, frame in SHIPPED:
+        scene = fixed_tessellation(static_version(warp_st.load(str(ROOT / "usd_scenes" / stage))))
+        r = Renderer(scene, frames=[frame], width=args.width, height=args.height, quadrics="tessellated")
+        r.render(frame)
+        cam = r._cameras[frame]
+        event = np.array([cam.time, *cam.position], dtype=np.float64)
+        origin = geometry_anchor(event, anchor_step(r.bvh.node_lo[0], r.bvh.node_hi[0]))
+        geo = r.database.geometry_for("float32", tuple(origin.tolist()), None)  # the frame's, cached
+        dirs = pixel_directions(scene, args.width, args.height, frame)
+        mesh = MeshQueries(scene, dirs, cam.position)
+        n = len(dirs)
+        outs = [wp.array(np.tile((event - origin).astype(np.float32), (n, 1)), dtype=wp.vec4, device="cpu"),
+                wp.zeros(n, dtype=wp.int32, device="cpu"), wp.zeros(n, dtype=wp.float32, device="cpu"),
+                wp.zeros(n, dtype=wp.int32, device="cpu")]
+
+        def ours(threads, outs=outs, geo=geo, mesh=mesh, r=r):
+            def launch(tile):
+                a, b = tile
+                wp.launch(r.kernels.cast_rays, dim=b - a, inputs=[geo, outs[0][a:b], mesh.dirs[a:b], 1,
+                                                                  outs[1][a:b], outs[2][a:b], outs[3][a:b]],
+                          device="cpu")
+
+            return mesh.run(launch, threads)
+
+        ours(2)
+        embree = EmbreeQueries.create(mesh, log)
+        tris = len(mesh.indices) // 3
+        for threads in (1, 2):
+            a, b, e = [], [], []
+            for _ in range(args.runs):
+                a.append(ours(threads))
+                b.append(mesh.query(threads))
+                if embree is not None:
+                    e.append(embree.query(threads))
+            hit = outs[1].numpy() >= 0
+            for who, times, faces in (("wp.Mesh", b, mesh.face.numpy()),
+                                      ("Embree", e, None if embree is None else embree.face)):
+                if times:
+                    agree = (hit == (faces >= 0)).mean()
+                    rows.append((f"closest hit only, {Path(stage).stem} static copy ({tris:,} triangles), {threads} thr",
+                                 med(a), med(times), med(times) / med(a),
+                                 f"{who} / ours" + ("" if agree == 1.0 else f" (hit masks agree on {100 * agree:.2f} %)")))
+            log(f"  {stage} {threads} thr: ours {1e3 * med(a):.1f} ms, wp.Mesh {1e3 * med(b):.1f} ms")
+    return rows
+
+
 def table_first(args, log):
     from warp_st.rendering.renderer import Renderer
 
@@ -439,7 +507,7 @@ def main(argv=None) -> int:
     rows = []
     for name in tables:
         log(f"[{name}]")
-        rows += {"static": table_static, "trace": table_trace, "motion": table_motion, "first": table_first,
+        rows += {"static": table_static, "trace": table_trace, "shipped": table_shipped, "motion": table_motion, "first": table_first,
                  "cubes": table_cubes, "sequence": table_sequence}[name](args, log)
     print(f"CPU: {cpu_model()}; medians of {args.runs} runs, both sides timed back to back in each run")
     print()
