@@ -51,7 +51,7 @@ tetrahedron hit returns primitive ``tet_first`` + its index (``prim_lookup``).
 Every helper here is force-inlined (``wp.func(inline=True)``): Warp passes the Geometry
 struct (some forty arrays, a few kilobytes) by value, and a call the compiler keeps out of
 line copies it per candidate body; inlined, only the fields used are read. Closest hits on
-static copies of the shipped stages got 15-30 % faster (docs/design/two-level.md), the
+static copies of the shipped stages got up to 30 % faster (docs/design/two-level.md), the
 same bits.
 """
 
