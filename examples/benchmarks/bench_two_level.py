@@ -16,6 +16,8 @@ drift between repetitions cancels; the CPU model heads the table.
 - shipped: closest hits only on static copies of shipped stages (the parade, the coupled
   flanges, the aberration and sphere-and-cubes stages; every body at rest, spheres as
   their triangles) against wp.Mesh and Embree over the same triangles and camera rays;
+- parade:  the shipped parade rendered in full (frame 0, 640 x 360, lit, warm) in
+  Mrays/s on 1 and 2 threads, default and prism paths;
 - motion:  the same render with the spheres moving at 0.3-0.9c against at rest
   (ratio = moving time / resting time);
 - first:   the first render of a new 1.03M-triangle static scene (kernels cached)
@@ -51,7 +53,7 @@ for _path in (ROOT, Path(__file__).resolve().parent):  # warp_st from this check
     if str(_path) not in sys.path:
         sys.path.insert(0, str(_path))
 
-TABLES = ("static", "trace", "shipped", "motion", "first", "cubes", "sequence")
+TABLES = ("static", "trace", "shipped", "parade", "motion", "first", "cubes", "sequence")
 #: The clock of the ray queries' timings (``MeshQueries.run``): wall time, or with
 #: ``--clock cpu`` the process's CPU time, which other jobs on a shared machine change far
 #: less (it sums both threads' on 2 threads: a cost, not a latency).
@@ -331,6 +333,31 @@ def table_trace(args, log):
     return rows
 
 
+def table_parade(args, log):
+    """The shipped parade rendered in full (frame 0, 640 x 360, lit, warm), primary rays
+    per second on 1 and 2 threads, the default path (exact spheres) and the prisms. The
+    rows' ratio column holds Mrays/s (A: ms a frame)."""
+    import warp_st
+    from warp_st.rendering.renderer import Renderer
+
+    scene = warp_st.load(str(ROOT / "usd_scenes" / "relativistic_parade.usda"))
+    rows = []
+    for primitive in (None, "prism"):
+        r = Renderer(scene, frames=[0.0], width=640, height=360, primitive=primitive)
+        r.render(0.0, threads=2)
+        for threads in (1, 2):
+            times = []
+            for _ in range(args.runs):
+                t0 = time.perf_counter()
+                r.render(0.0, threads=threads)
+                times.append(time.perf_counter() - t0)
+            rate = 640 * 360 / med(times) / 1e6
+            rows.append((f"full parade render, 640x360 lit, {primitive or 'default'} path, {threads} thr", med(times),
+                         float("nan"), rate, "Mrays/s (not a ratio)"))
+            log(f"  parade {primitive or 'default'} {threads} thr: {rate:.2f} Mrays/s")
+    return rows
+
+
 def table_motion(args, log):
     return moving_against_resting("16 spheres at 0.3-0.9c", spheres_scene(128, moving=False),
                                   spheres_scene(128, moving=True), args, log)
@@ -507,14 +534,16 @@ def main(argv=None) -> int:
     rows = []
     for name in tables:
         log(f"[{name}]")
-        rows += {"static": table_static, "trace": table_trace, "shipped": table_shipped, "motion": table_motion, "first": table_first,
+        rows += {"static": table_static, "trace": table_trace, "shipped": table_shipped, "parade": table_parade, "motion": table_motion, "first": table_first,
                  "cubes": table_cubes, "sequence": table_sequence}[name](args, log)
     print(f"CPU: {cpu_model()}; medians of {args.runs} runs, both sides timed back to back in each run")
     print()
     print("| measure | A ms | B ms | ratio | ratio is |")
     print("|---|---|---|---|---|")
     for label, a, b, ratio, what in rows:
-        print(f"| {label} | {1e3 * a:.1f} | {1e3 * b:.1f} | {ratio:.2f}x | {what} |")
+        ratio_text = f"{ratio:.2f}" if "Mrays" in what else f"{ratio:.2f}x"
+        b_text = "-" if b != b else f"{1e3 * b:.1f}"
+        print(f"| {label} | {1e3 * a:.1f} | {b_text} | {ratio_text} | {what} |")
     return 0
 
 
