@@ -47,10 +47,12 @@ def _sliding() -> str:
 @pytest.mark.parametrize("text, expected", [
     (spinning_rod(0.7), True),  # coupled, its pivot at rest: A(v) = I
     (_rolling(True), True),  # decoupled: A = I whatever the pivot does
-    (_rolling(False), False),  # coupled on a moving pivot: its pieces (proper time of an accelerated frame)
+    (_rolling(False), True),  # coupled on a moving pivot: A(v(s_k)) in the points, the pivot's clock (Unreleased)
     (_sliding(), False),  # translation only: the pieces are continuous
-    # an analytic sphere: the rigid path's exact shape
+    # a lone analytic sphere: the rigid path's exact shape
     (orbit('def Sphere "Ball"\n    {\n        double radius = 0.5\n    }'), False),
+    # a sphere beside a mesh (never exact): tessellated, worldlines
+    (orbit('def Sphere "Ball"\n    {\n        double radius = 0.5\n    }\n' + CUBE, decoupled=False), True),
 ])
 def test_which_bodies_are_traced_as_worldlines(tmp_path, text, expected):
     scene = warp_st.load(write(tmp_path, "s.usda", text))
