@@ -71,7 +71,10 @@ def march(cam, width: int, height: int, frame: float, grow: float) -> np.ndarray
 
 
 def coverage(frame: float, width: int = 160, height: int = 90, primitive: str | None = None) -> dict:
-    """{holes, extras, wheel (march-shrunk pixels), model} of a render of ``frame``."""
+    """{holes, extras, wheel (march-shrunk pixels), model, tau (the largest |properTime -
+    t / gamma| over the wheel's hits, t their lab time: the pivot's proper time from t_ref 0),
+    intervals (motion segments or sample intervals), tetrahedra, seconds (the render, after
+    a first one that builds the database and compiles)} of a render of ``frame``."""
     import warp_st
     from warp_st.rendering.renderer import Renderer
     from warp_st.spacetime.turning import is_worldlines
@@ -79,8 +82,14 @@ def coverage(frame: float, width: int = 160, height: int = 90, primitive: str | 
     scene = warp_st.load(str(WHEEL))
     index = [b.prim_path for b in scene.bodies].index("/Wheel")
     renderer = Renderer(scene, frames=[frame], width=width, height=height, primitive=primitive)
+    import time
+
     image = renderer.render(frame)
+    start = time.perf_counter()
+    image = renderer.render(frame)
+    seconds = time.perf_counter() - start
     rendered = image.object_id == index + 1
+    tau = np.abs(image.proper_time[rendered].astype(np.float64) - image.event_time[rendered] / GAMMA)
     cam = scene.camera_state(None, frame)
     inside, outside = march(cam, width, height, frame, -TOL), ~march(cam, width, height, frame, TOL)
     edge = ~(inside | outside)
@@ -92,8 +101,10 @@ def coverage(frame: float, width: int = 160, height: int = 90, primitive: str | 
         for dx in (-1, 0, 1):
             away &= ~np.roll(edge, (dy, dx), (0, 1))
     model = "worldlines" if is_worldlines(dict(renderer.animation)[index]) else "pieces"
+    stats = renderer.describe()
     return {"holes": int((inside & ~rendered & away).sum()), "extras": int((outside & rendered & away).sum()),
-            "wheel": int(inside.sum()), "model": model}
+            "wheel": int(inside.sum()), "model": model, "tau": float(tau.max()) if tau.size else float("nan"),
+            "intervals": stats["animated_segments"], "tetrahedra": renderer.stats.tetrahedra, "seconds": seconds}
 
 
 def main(argv=None) -> int:
@@ -105,7 +116,9 @@ def main(argv=None) -> int:
     width, height = args.size
     result = coverage(args.frame, width, height, "rigid" if args.pieces else None)
     print(f"frame {args.frame:g}, {width} x {height}, {result['model']}: {result['holes']} holes, "
-          f"{result['extras']} extras away from the silhouette ({result['wheel']} wheel pixels)")
+          f"{result['extras']} extras away from the silhouette ({result['wheel']} wheel pixels); "
+          f"properTime - t / gamma up to {result['tau']:.2e}; {result['intervals']} motion segments or sample "
+          f"intervals, {result['tetrahedra']} tetrahedra; a frame {result['seconds']:.3f} s")
     return 0
 
 

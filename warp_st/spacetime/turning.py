@@ -9,19 +9,37 @@ world-tube is continuous (the tetrahedra between slices share their faces) and t
 existing tetrahedral path traces it, with point velocities for Doppler and shading.
 
 Which bodies (``worldline_body``): an animated body whose linear part L changes (it turns
-or scales), made of meshes only (no analytic sphere or quadric: their exact shapes are the
-rigid path's), and Lorentz-decoupled or with its pivot at rest over all its probes and
-held motion. Then A(v) = I at every time, so x_i above is USD's world-tube exactly (no
-choice of v at a sample), and proper time is unchanged: t - t_ref (decoupled, or a pivot
-at rest: §2.1's integral of dt / gamma with gamma = 1). A coupled body turning on a moving
-pivot (a rolling wheel, a moon on an orbit) keeps its pieces: the tetrahedral path's proper
-time (§2 per body) and shading would not follow its pivot's accelerated frame.
+or scales), without a UsdGeom.Sphere, not a lone analytic surface (a lone Cylinder, Cone or
+Capsule is the rigid path's exact shape; those beside meshes, never exact, are traced as their
+triangles: the rolling wheel's tyre), and
+Lorentz-decoupled, or with its pivot at rest over all its probes and held motion, or coupled
+on a moving pivot below c. Decoupled or at rest, A(v) = I at every time, so x_i above is
+USD's world-tube exactly (no choice of v at a sample), and proper time is unchanged: t - t_ref
+(decoupled, or a pivot at rest: §2.1's integral of dt / gamma with gamma = 1).
+
+A Sphere keeps its pieces: the pieces re-tessellate it per frame within half a pixel
+(``adaptive``; at least the reader's 64 segments, ~4,000 triangles) and turning does not
+change its shape, while as worldlines its triangles would be extruded at about every probe
+(the velocity rule binds for fast bodies): circular_orbit's coupled moon (a Sphere and a
+Cube) took over 6 GB for one frame's tetrahedra.
+
+Coupled on a moving pivot (Unreleased; ``moving_pivot``): x_i(s_k) = o(s_k) + r_i G(s_k),
+G = L A(v(s_k)) (``sample_shapes``), v(s_k) the mean of the probes' chord velocities on
+both sides of the probe (the inside one at the first and last: ``probe_velocities``): for
+uniform motion that is §2's tube exactly, and the tetrahedra between slices keep the tube
+continuous whatever the choice. Its held ends are always ``animation``'s held pieces. Its
+proper time is its pivot's, ``pivot_clock`` (``Body.clock``), at every point at the same lab
+time: the extrusion stores it per slice vertex and the kernel blends it with the hit's
+barycentrics (linear between slices); the sample rule keeps the pivot's 1 / gamma within
+TAU_RATE_TOLERANCE of each chord's mean, so that errs by at most 1e-3 x the lab time to the
+nearer slice.
 
 Error. Between two samples a and b, vertex i is at the chord of its path, and USD (the
 probes' linear interpolation, within PROBE_TOLERANCE of USD) at o(t) + r L(t), |r| <= R:
 the distance is at most |o(t) - chord_o(t)| + R |L(t) - chord_L(t)|_2, both piecewise
 linear in t between probes, so largest at a probe: checked at every probe between a and b
-(``worldline_times``). For a rotation by theta over [a, b] that is R (1 - cos(theta / 2))
+(``worldline_times``; on a moving pivot with L A_q in probe interval q, at both ends of every
+interval: ``_coupled_fits``). For a rotation by theta over [a, b] that is R (1 - cos(theta / 2))
 ~ R theta^2 / 8 (second order; a held orientation errs by ~ R theta / 2). The samples are
 grown greedily while it stays within half the rigid path's tolerance at every probe
 (``animation._tolerances``: half a pixel at the nearest distance any camera can see the
@@ -67,8 +85,10 @@ def worldline_body(body: Body) -> bool:
         return False
     if any(s.samples is not None for s in body.surfaces):
         return False
-    if len(body.surfaces) == 1 and (body.surfaces[0].sphere is not None or body.surfaces[0].quadric is not None):
+    if len(body.surfaces) == 1 and body.surfaces[0].quadric is not None:
         return False  # a lone analytic surface: the rigid path's exact quadric, as pieces
+    if any(s.sphere is not None for s in body.surfaces):
+        return False  # a Sphere: its pieces' adaptive tessellation (module docstring)
     if not np.ptp(np.asarray(m.linear, dtype=np.float64), axis=0).max() > 0.0:
         return False
     if body.decoupled or not moving_pivot(body):
