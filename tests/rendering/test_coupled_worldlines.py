@@ -180,3 +180,14 @@ def test_uniform_rolling_keeps_the_proper_time_of_the_pivot_frame():
     assert hit.sum() > 100
     t = image.event_time[hit].astype(np.float64)
     np.testing.assert_allclose(image.proper_time[hit], t / GAMMA, rtol=0.0, atol=1e-4)
+
+
+@pytest.mark.parametrize("options", [{"primitive": "tet"}, {"precision": "float64"}])
+def test_proper_time_on_the_tetrahedral_path(tmp_path, options):
+    """The tetrahedral path's own tables carry the pivot's clock too (float32 and float64)."""
+    scene = warp_st.load(write(tmp_path, "accel.usda", _accelerating()))
+    image = warp_st.render(scene, frame=72.0, width=64, height=48, **options)
+    hit = image.object_id == 1
+    assert hit.sum() > 30
+    t = image.event_time[hit].astype(np.float64)
+    np.testing.assert_allclose(image.proper_time[hit], _closed_form_tau(t), rtol=0.0, atol=2e-5 * (1.0 + np.abs(t).max()))
