@@ -190,4 +190,5 @@ def test_proper_time_on_the_tetrahedral_path(tmp_path, options):
     hit = image.object_id == 1
     assert hit.sum() > 30
     t = image.event_time[hit].astype(np.float64)
-    np.testing.assert_allclose(image.proper_time[hit], _closed_form_tau(t), rtol=0.0, atol=2e-5 * (1.0 + np.abs(t).max()))
+    np.testing.assert_allclose(image.proper_time[hit], _closed_form_tau(t), rtol=0.0,
+                               atol=2e-5 * (1.0 + np.abs(t).max()))
