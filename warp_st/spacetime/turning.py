@@ -69,9 +69,9 @@ import numpy as np
 from warp_st.core.deform import PointSamples
 from warp_st.core.scene import Body
 
-__all__ = ["VELOCITY_TOLERANCE", "TAU_RATE_TOLERANCE", "WORLDLINES", "worldline_body", "worldline_times", "worldline_cuts",
-           "is_worldlines", "worldline_count", "worldline_bodies", "moving_pivot", "probe_velocities", "sample_shapes",
-           "pivot_clock"]
+__all__ = ["VELOCITY_TOLERANCE", "TAU_RATE_TOLERANCE", "WORLDLINES", "worldline_body", "worldline_times",
+           "worldline_cuts", "is_worldlines", "worldline_count", "worldline_bodies", "moving_pivot", "probe_velocities",
+           "sample_shapes", "pivot_clock"]
 
 #: The first item of an animated body's cuts (``animation.animation_cuts``) when it is
 #: traced as per-vertex worldlines; the sample times follow.
