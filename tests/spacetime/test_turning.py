@@ -10,13 +10,14 @@ import pytest
 from pxr import Gf, Usd, UsdGeom
 
 import warp_st
+from warp_st.core.lorentz import contraction_matrix
 from warp_st.rendering.camera import pixel_directions
 from warp_st.rendering.renderer import Renderer
 from warp_st.spacetime.animation import animated_bodies, animation_cuts, body_radius, piece_count
 from warp_st.spacetime import turning
 from warp_st.spacetime.turning import VELOCITY_TOLERANCE, is_worldlines, worldline_body, worldline_count
 
-from animation_stages import CUBE, HEADER, orbit, spinning_rod, write
+from animation_stages import CUBE, HEADER, orbit, orbit_degrees, spinning_rod, write
 
 SIZE = dict(width=160, height=90)
 
@@ -47,10 +48,15 @@ def _sliding() -> str:
 @pytest.mark.parametrize("text, expected", [
     (spinning_rod(0.7), True),  # coupled, its pivot at rest: A(v) = I
     (_rolling(True), True),  # decoupled: A = I whatever the pivot does
-    (_rolling(False), False),  # coupled on a moving pivot: its pieces (proper time of an accelerated frame)
+    (_rolling(False), True),  # coupled on a moving pivot: A(v(s_k)) in the points, the pivot's clock (Unreleased)
     (_sliding(), False),  # translation only: the pieces are continuous
-    # an analytic sphere: the rigid path's exact shape
+    # a lone analytic sphere: the rigid path's exact shape
     (orbit('def Sphere "Ball"\n    {\n        double radius = 0.5\n    }'), False),
+    # a sphere beside a mesh: the pieces' adaptive sphere (its triangles at every probe cost too much)
+    (orbit('def Sphere "Ball"\n    {\n        double radius = 0.5\n    }\n' + CUBE, decoupled=False), False),
+    # a cylinder beside a mesh (never exact): its triangles, worldlines (the rolling wheel's tyre)
+    (orbit('def Cylinder "Tyre"\n    {\n        double radius = 0.5\n        double height = 0.2\n    }\n'
+           + CUBE, decoupled=False), True),
 ])
 def test_which_bodies_are_traced_as_worldlines(tmp_path, text, expected):
     scene = warp_st.load(write(tmp_path, "s.usda", text))
@@ -156,3 +162,135 @@ def test_exact_quadrics_asked_for_keep_the_pieces(tmp_path):
     r = Renderer(scene, frames=[30.0], quadrics="exact", **SIZE)
     assert r.primitive == "rigid"
     assert not any(is_worldlines(cuts) for _i, cuts in r.animation)
+
+
+def _counter_orbit() -> str:
+    """A coupled box on a circular orbit at 0.8c whose own rotateY undoes 0.9 of the orbit's:
+    it turns slowly in the lab (0.1 of the orbit's rate) while the direction of its pivot's
+    velocity turns with the orbit, so its contraction A(v(t)), not its orientation L(t),
+    sets the chords' error."""
+    degrees = orbit_degrees(0.8, 5.0, 100.0)
+    return HEADER + f'''def Xform "Orbit"
+{{
+    double xformOp:rotateY.timeSamples = {{ 0: 0, 100: {degrees!r} }}
+    uniform token[] xformOpOrder = ["xformOp:rotateY"]
+    def Xform "Moon" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+    {{
+        double3 xformOp:translate = (5, 0, 0)
+        double xformOp:rotateY.timeSamples = {{ 0: 0, 100: {-0.9 * degrees!r} }}
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateY"]
+        {CUBE}
+    }}
+}}
+'''
+
+
+def _contracted_usd(path: str, local: np.ndarray, t: float, h: float = 1e-4) -> np.ndarray:
+    """§2.1's coupled world points of the box's authored points ``local`` at lab time t:
+    USD's rest placement, contracted about the pivot (USD's origin of /Orbit/Moon) along
+    the pivot's velocity (a central difference of USD's: the tangent of the circle; one-sided
+    at the first and last time code, where USD holds: the inside's, as the samples take it)."""
+    stage = Usd.Stage.Open(path)
+    moon = UsdGeom.Xformable(stage.GetPrimAtPath("/Orbit/Moon"))
+
+    def origin(time):
+        return np.array(moon.ComputeLocalToWorldTransform(Usd.TimeCode(time)).ExtractTranslation())
+
+    o = origin(t)
+    lo, hi = max(t - h, 0.0), min(t + h, 100.0)
+    v = (origin(hi) - origin(lo)) / (hi - lo)
+    a = contraction_matrix(v, False)
+    return o + (_usd_points(path, "/Orbit/Moon/Box", local, t) - o) @ a
+
+
+@pytest.mark.parametrize("velocities", [True, False])
+def test_coupled_worldlines_follow_the_contracted_usd_path(tmp_path, monkeypatch, velocities):
+    """A coupled body turning on a moving pivot (spacetime/turning.py, Unreleased): every
+    vertex at every sample time is USD's point contracted along the pivot's velocity (to the
+    probes' 1e-5 and the chords' velocity against the circle's tangent, 1e-4 in all), and
+    between the samples its chord stays within a quarter pixel of that path (plus the same
+    1e-4). Without the velocity rule the position rule alone sets the samples: then the
+    contraction's change is what the bound must hold (it fails with the contraction left
+    out of the rule)."""
+    if not velocities:
+        monkeypatch.setattr(turning, "VELOCITY_TOLERANCE", np.inf)
+        monkeypatch.setattr(turning, "TAU_RATE_TOLERANCE", np.inf)
+    path = write(tmp_path, "orbit.usda", _counter_orbit())
+    scene = warp_st.load(path)
+    cams = [scene.camera_state(None, f) for f in (30.0, 60.0)]
+    (i, cuts), = animation_cuts(scene, cams, worldlines=True, **SIZE)
+    assert is_worldlines(cuts) and turning.moving_pivot(scene.bodies[i])
+    (moon,) = [b for b in animated_bodies(scene, ((i, cuts),))[0] if b.surfaces[0].samples is not None]
+    (surface,) = moon.surfaces
+    samples = surface.samples
+    assert moon.clock is not None and not moon.velocity.any()
+    local = np.asarray(surface.points) - scene.bodies[i].motion.static_pivot  # the Cube's own (size 1.2)
+    assert np.allclose(np.abs(local), 0.6)
+    for k in [*range(0, len(samples.times), 7), len(samples.times) - 1]:
+        t = float(samples.times[k])
+        # the first and last samples take the one-sided chord's velocity (the inside's), turned
+        # from the circle's tangent by half a probe interval's turn (0.16 x ~0.05 / 2 rad): A
+        # differs by at most 2 (1 - 1 / gamma) x that, 3e-3 x |r| (9.4e-4 measured at the corners)
+        ends = k in (0, len(samples.times) - 1)
+        np.testing.assert_allclose(samples.points[k], _contracted_usd(path, local, t), atol=3e-3 if ends else 1e-4)
+    radius = body_radius(scene.bodies[i])
+    n = pixel_directions(cams[0], SIZE["width"], SIZE["height"])
+    angle = float(np.arccos(np.clip(np.sum(n[45, 80] * n[45, 81]), -1.0, 1.0)))
+    motion = scene.bodies[i].motion
+
+    def quarter_pixel(a, b):  # at the nearest any camera sees the body in [a, b]: its pivot's distance less R
+        pivot = motion.pivot[(motion.times >= a) & (motion.times <= b)]
+        return 0.25 * angle * (min(float(np.linalg.norm(pivot - c.position, axis=1).min()) for c in cams) - radius)
+
+    worst = 0.0  # the largest error as a fraction of its interval's quarter pixel
+    for k in range(0, len(samples.times) - 1, 5 if velocities else 1):
+        a, b = float(samples.times[k]), float(samples.times[k + 1])
+        tol = quarter_pixel(a, b) + 1e-4
+        for f in np.linspace(0.1, 0.9, 9):
+            t = a + f * (b - a)
+            error = float(np.linalg.norm(samples.at(t) - _contracted_usd(path, local, t), axis=1).max())
+            worst = max(worst, error / tol)
+    assert 0.0 < worst <= 1.0, worst
+
+
+def _speeding_up() -> str:
+    """A coupled box turning slowly while its pivot speeds up smoothly from 0.88c to 0.9c
+    (a translate sample every time code): 1 / gamma changes by ~2 x its speed's change."""
+    xs = ", ".join(f"{t}: ({0.88 * t + 1e-4 * t * t!r}, 0, -30)" for t in range(101))
+    return HEADER + f'''def Xform "Box" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{{
+    double spacetime:referenceTime = 10
+    double3 xformOp:translate.timeSamples = {{ {xs} }}
+    double xformOp:rotateZ.timeSamples = {{ 0: 0, 100: -20 }}
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateZ"]
+    {CUBE}
+}}
+'''
+
+
+def test_the_pivots_proper_time_is_linear_between_samples_within_the_rule(tmp_path):
+    """Between two samples the kernel takes the pivot's proper time linearly (between the
+    slices, which the samples are among); the sample rule keeps the probes' 1 / gamma within
+    TAU_RATE_TOLERANCE of each chord's mean, so the chord errs by at most that x the time to
+    the nearer sample. Checked at every probe against the closed form of the probes'
+    integral (USD's linear interpolation: 1 / gamma constant per time code). It fails without
+    the rule (the velocity rule alone lets a chord span ~20 time codes here)."""
+    scene = warp_st.load(write(tmp_path, "speeding.usda", _speeding_up()))
+    cams = [scene.camera_state(None, 50.0)]
+    (i, cuts), = animation_cuts(scene, cams, worldlines=True, **SIZE)
+    body = scene.bodies[i]
+    times, tau = turning.pivot_clock(body)
+    codes = np.arange(101.0)
+    inv_gamma = np.sqrt(1.0 - (0.88 + 2e-4 * (codes[:-1] + 0.5)) ** 2)  # each time code's chord speed
+    closed = np.concatenate([[0.0], np.cumsum(inv_gamma)])
+    np.testing.assert_allclose(np.interp(times, codes, closed) - np.interp(10.0, codes, closed), tau, atol=1e-9)
+    samples = np.concatenate([np.asarray(run) for run in cuts[1:]])
+    assert len(samples) > 3
+    worst = 0.0
+    for a, b in zip(samples[:-1], samples[1:]):
+        inside = (times > a) & (times < b)
+        chord = np.interp(times[inside], [a, b], np.interp([a, b], times, tau))
+        room = np.minimum(times[inside] - a, b - times[inside])
+        if inside.any():
+            worst = max(worst, float((np.abs(tau[inside] - chord) / room).max()))
+    assert worst <= 5e-4 + 1e-9, worst  # TAU_RATE_TOLERANCE as documented (docs/spec.md §2.1)

@@ -186,6 +186,9 @@ class Body:
     rest_frame: its animation is its motion in its own rest frame S' (``spacetime:animationFrame
         = "rest"``, docs/spec.md §2.1): its points are lab positions (``decoupled`` for
         tracing), its proper time is t' of the event in S', gamma(v) ((t - t_ref) - v.(x - o)).
+    clock: (times, tau), the proper time of a deforming body's every point at lab times
+        ``times`` (its pivot's, linear between them: a coupled body turning on a moving
+        pivot, ``spacetime.turning``), (M,) each; None: §2's (``velocity``, ``decoupled``).
     """
 
     prim_path: str
@@ -200,6 +203,7 @@ class Body:
     piece_linear: object = None
     seam: float = 0.0
     rest_frame: bool = False
+    clock: object = None
 
     @property
     def speed(self) -> float:

@@ -83,7 +83,7 @@ def _make_render(scalar, k, trace, Geometry):
     doppler_transform = make_spectrum(scalar, vec3)
     _textures, surface_inputs = make_textures(scalar)
     _sky, sky_radiance, sky_irradiance = make_sky(scalar)
-    prim_triangle, _vertices = make_prim_lookup(Geometry)
+    prim_triangle, prim_vertices = make_prim_lookup(Geometry)
 
     @wp.struct
     class Camera:
@@ -380,12 +380,13 @@ def _make_render(scalar, k, trace, Geometry):
                 sum_alpha = scalar(0.0)
                 u0 = vec3(scalar(0.0))
                 gamma0 = scalar(1.0)
+                lam0 = vec4(scalar(0.0))
                 for k in range(rays):
                     ray_o = cam.origin
                     ray_n = n
                     if k > 0:
                         ray_o, ray_n = sample_ray(cam, px, py, k - 1, pixel)
-                    c, a, p_k, s_k, _lam_k, st_k, sb_k, ray_visits, ray_ovf, u_k, g_k = trace_path(geo, shd, cam, ray_o, ray_n)
+                    c, a, p_k, s_k, lam_k, st_k, sb_k, ray_visits, ray_ovf, u_k, g_k = trace_path(geo, shd, cam, ray_o, ray_n)
                     visits += ray_visits
                     overflow = wp.max(overflow, ray_ovf)
                     if film.sample_id.shape[0] > 0 and (k > 0 or rays == 1):  # the beauty's samples
@@ -398,6 +399,7 @@ def _make_render(scalar, k, trace, Geometry):
                         alpha = a
                         prim = p_k
                         s = s_k
+                        lam0 = lam_k
                         src_t = st_k
                         src_b = sb_k
                         u0 = u_k
@@ -448,6 +450,12 @@ def _make_render(scalar, k, trace, Geometry):
                 if dec == 0:
                     rel_x = vec3(event[1] - bo[1], event[2] - bo[2], event[3] - bo[3])
                     tau = shd.body_gamma[body] * (rel_t - wp.dot(v, rel_x))
+                if shd.vert_clock.shape[0] > 0 and shd.body_points[body] > 0:
+                    # a deforming body's slices' clocks, blended as the event's time is: the
+                    # pivot's proper time linear between slices (0 for bodies without one)
+                    idx = prim_vertices(geo, prim)
+                    tau = tau + (lam0[0] * shd.vert_clock[idx[0]] + lam0[1] * shd.vert_clock[idx[1]]
+                                 + lam0[2] * shd.vert_clock[idx[2]] + lam0[3] * shd.vert_clock[idx[3]])
                 film.proper_time[pixel] = tau
 
                 # D = (k.u_cam)/(k.u_body), k = (1, -n): -k.u = u_t + n.u_x. With infinite

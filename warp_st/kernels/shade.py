@@ -57,6 +57,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         body_seam: wp.array(dtype=scalar)  # Body.seam: an animated piece's distance from its neighbours
         body_points: wp.array(dtype=wp.int32)  # > 0: the body deforms, its points per slice (tet path, §2.2)
         vert_velocity: wp.array(dtype=vec3)  # a deforming body's vertex: its velocity over the slice above it
+        vert_clock: wp.array(dtype=scalar)  # a deforming body's vertex: tau - (t - t_ref) (empty: none has one)
         light_kind: wp.array(dtype=wp.int32)  # 0 sphere (radius 0: point), 1 distant, 2 area (rect, disk)
         light_pos: wp.array(dtype=vec3)
         light_dir: wp.array(dtype=vec3)

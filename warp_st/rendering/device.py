@@ -79,6 +79,7 @@ class ShadingTables:
         # Deforming bodies' point velocities (the tet path, ``StaticArrays``): none here.
         self.body_points = wp.zeros(len(bodies), dtype=wp.int32, device=_DEVICE)
         self.vert_velocity = wp.zeros(0, dtype=k.vec3, device=_DEVICE)
+        self.vert_clock = wp.zeros(0, dtype=k.scalar, device=_DEVICE)  # none: §2's proper time for every body
 
 
 class StaticArrays(ShadingTables):
@@ -98,6 +99,8 @@ class StaticArrays(ShadingTables):
             if len(mesh.vertex_velocity):  # a body deforms: its points' own velocities (kernels/shade.py)
                 self.body_points = wp.array(mesh.body_points, dtype=wp.int32, device=_DEVICE)
                 self.vert_velocity = wp.array(mesh.vertex_velocity.astype(self.np_scalar), dtype=k.vec3, device=_DEVICE)
+            if len(mesh.vertex_clock):  # a turning coupled body's pivot clock (spacetime/turning.py)
+                self.vert_clock = wp.array(mesh.vertex_clock.astype(self.np_scalar), dtype=k.scalar, device=_DEVICE)
         self.prim_vidx = wp.array(vidx.astype(np.int32), dtype=wp.vec4i, device=_DEVICE)
         self.prim_tri = wp.array(tri.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         # The kernel traces the 4-wide form of the BVH (bvh_wide.py).
@@ -202,6 +205,7 @@ def make_shading(
     s.body_seam = static.body_seam
     s.body_points = static.body_points
     s.vert_velocity = static.vert_velocity
+    s.vert_clock = static.vert_clock
     kinds = np.array([_LIGHT_KIND[l.kind] for l in lights], dtype=np.int32)
     pos = np.array([l.position for l in lights], dtype=np.float64).reshape(-1, 3) - origin[1:]
     dirs = np.array([l.direction for l in lights], dtype=np.float64).reshape(-1, 3)

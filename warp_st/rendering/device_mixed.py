@@ -52,6 +52,8 @@ class MixedArrays(RigidArrays):
         if len(mesh.vertex_velocity):  # the deforming points' own velocities (kernels/shade.py)
             self.body_points = wp.array(mesh.body_points, dtype=wp.int32, device=_DEVICE)
             self.vert_velocity = wp.array(mesh.vertex_velocity.astype(self.np_scalar), dtype=k.vec3, device=_DEVICE)
+        if len(mesh.vertex_clock):  # a turning coupled body's pivot clock (spacetime/turning.py)
+            self.vert_clock = wp.array(mesh.vertex_clock.astype(self.np_scalar), dtype=k.scalar, device=_DEVICE)
         if self.textures.info.shape[0]:  # rigid triangles' corners in order, then the tetrahedra's
             corners = np.concatenate([np.full(self.tet_first, CORNERS_DEFAULT, np.int32), tet_corners(mesh.tets)])
             self.textures.prim_corner = wp.array(corners, dtype=wp.int32, device=_DEVICE)

@@ -85,6 +85,10 @@ class SpacetimeMesh(TriangleTables):
     vertex_velocity: a deforming body's vertices' lab velocities over the slice interval
         above them (``deform.slice_velocities``), zeros for other bodies, (V, 3); (0, 3)
         when no body deforms.
+    vertex_clock: each vertex's proper time less its lab time since the body's reference
+        time, tau - (t - t_ref), for a deforming body with ``Body.clock`` (its pivot's,
+        ``spacetime.turning``), zeros for other bodies, (V,); (0,) when no body has one:
+        the kernel blends it with the hit's barycentrics (linear between slices).
     """
 
     vertices: np.ndarray
@@ -96,6 +100,7 @@ class SpacetimeMesh(TriangleTables):
     primitive: str = "tet"
     body_points: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
     vertex_velocity: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    vertex_clock: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def tet_count(self) -> int:
@@ -331,7 +336,7 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
     materials: list = []
     mat_index: dict = {}
     verts, vnorms, tets, tet_tri, prisms, prism_tri, spans = [], [], [], [], [], [], []
-    velocities, body_points = [], np.zeros(len(scene.bodies), np.int32)
+    velocities, clocks, body_points = [], [], np.zeros(len(scene.bodies), np.int32)
     tri_normal, tri_smooth, tri_size, tri_body, tri_material, tri_st = [], [], [], [], [], []
     v_base = 0
     t_base = 0
@@ -358,6 +363,9 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
             if deforming(body):
                 ev, normals = deformed_events(body, slices)
                 velocities.append((v_base, slice_velocities(ev).reshape(-1, 3)))
+                if body.clock is not None:  # the pivot's proper time at each slice (spacetime/turning.py)
+                    lag = np.interp(slices, *body.clock) - (slices - body.reference_time)
+                    clocks.append((v_base, np.repeat(lag, n_pts)))
                 body_points[b_index] = n_pts
             else:
                 ev = _slice_events(bt.local, body.velocity, body.reference_time, slices)  # (K+1, P, 4)
@@ -378,6 +386,9 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
     vertex_velocity = np.zeros((v_base if velocities else 0, 3))
     for start, rows in velocities:
         vertex_velocity[start:start + len(rows)] = rows
+    vertex_clock = np.zeros(v_base if clocks else 0)
+    for start, rows in clocks:
+        vertex_clock[start:start + len(rows)] = rows
 
     return SpacetimeMesh(
         vertices=cat(verts, (0, 4), np.float64),
@@ -397,6 +408,7 @@ def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: f
         tri_st=cat(tri_st, (0, 3, 2), np.float64),
         body_points=body_points,
         vertex_velocity=vertex_velocity,
+        vertex_clock=vertex_clock,
     )
 
 
