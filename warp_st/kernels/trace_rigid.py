@@ -47,12 +47,6 @@ leaf kind. A segment whose body is -1 holds the deforming bodies' 4D tetrahedron
 traversal and exact tetrahedron test on it, nested as the bottom level is, with the
 ray's own s_min, best, skips and any-hit flag, so its hits are the tet path's. A
 tetrahedron hit returns primitive ``tet_first`` + its index (``prim_lookup``).
-
-Every helper here is force-inlined (``wp.func(inline=True)``): Warp passes the Geometry
-struct (some forty arrays, a few kilobytes) by value, and a call the compiler keeps out of
-line copies it per candidate body; inlined, only the fields used are read. Closest hits on
-static copies of the shipped stages got up to 30 % faster (docs/design/two-level.md), the
-same bits.
 """
 
 import warp as wp
@@ -150,7 +144,7 @@ def make_trace_rigid(scalar, tets: bool = False):
         inv: vec4  # 1 / d per axis for the segment boxes' slab test
         fin: scalar  # 1 for finite light speed (D = n + v), 0 for infinite (D = n)
 
-    @wp.func(inline=True)
+    @wp.func
     def prepare(g: Geometry, o: vec4, n: vec3, finite: int) -> Ray:
         r = Ray()
         inv_t = scalar(BIG)
@@ -161,7 +155,7 @@ def make_trace_rigid(scalar, tets: bool = False):
         r.inv = vec4(inv_t, safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
         return r
 
-    @wp.func(inline=True)
+    @wp.func
     def box_range(lo: vec4, hi: vec4, o: vec4, inv: vec4, s_lo: scalar, s_hi: scalar):
         """(s_lo, s_hi) cut to where the ray is inside the 4D box [lo, hi] (empty: s_lo > s_hi)."""
         a = wp.cw_mul(lo - o, inv)
@@ -173,7 +167,7 @@ def make_trace_rigid(scalar, tets: bool = False):
             far = fmin(far, fmax(a[k], b[k]) * scalar(SLAB_GROW))
         return near, far
 
-    @wp.func(inline=True)
+    @wp.func
     def body_ray(g: Geometry, body: int, o: vec4, n: vec3, fin: scalar):
         """The ray in the coordinates of ``body``'s frame, r(s) = p + s d, in float64 from
         the frame's event (the anchor; spacetime/rigid.py): (p, d)."""
@@ -185,7 +179,7 @@ def make_trace_rigid(scalar, tets: bool = False):
             wp.float64(o[0]) - a[0])
         return rest * w, rest * d
 
-    @wp.func(inline=True)
+    @wp.func
     def rest_range(lo: wp.vec3d, hi: wp.vec3d, p: wp.vec3d, d: wp.vec3d, s0: wp.float64, s1: wp.float64):
         """[s0, s1] cut to where r(s) = p + s d lies in the box [lo, hi] (float64 slabs;
         empty: s0 >= s1)."""
@@ -200,7 +194,7 @@ def make_trace_rigid(scalar, tets: bool = False):
                 s1 = wp.float64(-1.0)
         return s0, s1
 
-    @wp.func(inline=True)
+    @wp.func
     def quadric_hit(g: Geometry, body: int, p: wp.vec3d, d: wp.vec3d, lo: wp.float64, hi: wp.float64):
         """(s, lab normal) of the first crossing of ``body``'s analytic shape in [lo, hi]
         (``kernels/quadrics.py`` in its canonical coordinates q = Q (r - c)); s < lo when
@@ -223,13 +217,13 @@ def make_trace_rigid(scalar, tets: bool = False):
             normal = vec3(scalar(lab[0]), scalar(lab[1]), scalar(lab[2]))
         return s, normal
 
-    @wp.func(inline=True)
+    @wp.func
     def at(p: wp.vec3d, d: wp.vec3d, s: wp.float64) -> wp.vec3:
         """The ray's point at s, as a float32 bottom-level query takes it."""
         q = p + d * s
         return wp.vec3(wp.float32(q[0]), wp.float32(q[1]), wp.float32(q[2]))
 
-    @wp.func(inline=True)
+    @wp.func
     def leaf(g: Geometry, ray: Ray, first: int, count: int, o: vec4, n: vec3, finite: int, s_min: scalar,
              best: scalar, best_prim: int, best_lam: vec4, skip_tri: int, skip_body: int, skip_dist: scalar,
              any_hit: int):

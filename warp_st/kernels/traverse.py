@@ -107,7 +107,7 @@ def make_traverse(scalar, Geometry, prepare, leaf):
     INF = float("inf")
     fmin, fmax, safe_inv, SLAB_GROW = make_box_ops(scalar)
 
-    @wp.func(inline=True)
+    @wp.func
     def box_quad(g: Geometry, node: int, o16: vec16, inv16: vec16, s_min: scalar, s_max: scalar):
         """Slab tests of wide node ``node``'s four child boxes at once: (entries, exits).
         Child k is hit when entries[k] <= exits[k]. The t slab is t = t_c - s.
@@ -132,7 +132,7 @@ def make_traverse(scalar, Geometry, prepare, leaf):
 
     sort4 = make_sort4(scalar)
 
-    @wp.func(inline=True)
+    @wp.func
     def trace(
         g: Geometry,
         o: vec4,
