@@ -287,20 +287,17 @@ def moving_against_resting(label, rest, moving, args, log):
     return rows
 
 
-def table_trace(args, log):
+def closest_hits(r, geo, mesh, origin_event, label, args, log):
+    """Rows timing closest hits of ``mesh``'s rays through renderer ``r``'s two levels
+    (``cast_rays`` on the frame's geometry ``geo``, rays from ``origin_event`` relative to
+    its origin) against ``mesh`` (wp.Mesh) and Embree over the same rays, 1 and 2 threads,
+    both sides back to back in each run; a row notes where the hit masks differ."""
     import warp as wp
 
-    from warp_st.rendering.renderer import Renderer
-
-    scene = spheres_scene(128, moving=False)
-    dirs = pixel_directions(scene, args.width, args.height)
-    mesh = MeshQueries(scene, dirs)
-    r = Renderer(scene, frames=[0.0], width=args.width, height=args.height)
-    r.render(0.0)
-    geo = r.database.geometry_for("float32", (0.0, 0.0, 0.0, 0.0), None)  # the frame's geometry, cached
-    n = len(dirs)
-    outs = [wp.zeros(n, dtype=wp.vec4, device="cpu"), wp.zeros(n, dtype=wp.int32, device="cpu"),
-            wp.zeros(n, dtype=wp.float32, device="cpu"), wp.zeros(n, dtype=wp.int32, device="cpu")]
+    n = len(mesh.face)
+    outs = [wp.array(np.tile(np.asarray(origin_event, np.float32), (n, 1)), dtype=wp.vec4, device="cpu"),
+            wp.zeros(n, dtype=wp.int32, device="cpu"), wp.zeros(n, dtype=wp.float32, device="cpu"),
+            wp.zeros(n, dtype=wp.int32, device="cpu")]
 
     def ours(threads):
         def launch(tile):
@@ -323,14 +320,26 @@ def table_trace(args, log):
         hit = outs[1].numpy() >= 0
         for who, times, faces in (("wp.Mesh", b, mesh.face.numpy()), ("Embree", e, None if embree is None else
                                                                       embree.face)):
-            if not times:
-                continue
-            agree = np.array_equal(hit, faces >= 0)
-            rows.append((f"closest hit only, 16 static spheres (two levels against one {who}), {threads} thr",
-                         med(a), med(times), med(times) / med(a), f"{who} / ours" + ("" if agree else
-                                                                                   " (hits DISAGREE)")))
-            log(f"  trace {threads} thr: ours {1e3 * med(a):.1f} ms, {who} {1e3 * med(times):.1f} ms")
+            if times:
+                agree = (hit == (faces >= 0)).mean()
+                rows.append((f"closest hit only, {label.format(who=who)}, {threads} thr", med(a), med(times),
+                             med(times) / med(a),
+                             f"{who} / ours" + ("" if agree == 1.0 else f" (hit masks agree on {100 * agree:.2f} %)")))
+        log(f"  {label.format(who='wp.Mesh')} {threads} thr: ours {1e3 * med(a):.1f} ms, wp.Mesh {1e3 * med(b):.1f} ms")
     return rows
+
+
+def table_trace(args, log):
+    from warp_st.rendering.renderer import Renderer
+
+    scene = spheres_scene(128, moving=False)
+    dirs = pixel_directions(scene, args.width, args.height)
+    mesh = MeshQueries(scene, dirs)
+    r = Renderer(scene, frames=[0.0], width=args.width, height=args.height)
+    r.render(0.0)
+    geo = r.database.geometry_for("float32", (0.0, 0.0, 0.0, 0.0), None)  # the frame's geometry, cached
+    return closest_hits(r, geo, mesh, (0.0, 0.0, 0.0, 0.0), "16 static spheres (two levels against one {who})",
+                        args, log)
 
 
 def table_parade(args, log):
@@ -372,8 +381,6 @@ def table_shipped(args, log):
     """Closest hits on static copies of shipped stages (every body at rest, spheres as
     their triangles): our two levels against wp.Mesh and Embree over the same triangles
     and primary rays from the camera (``cast_rays``, no shading)."""
-    import warp as wp
-
     import warp_st
     from benchlib.scenes import fixed_tessellation, static_version
     from warp_st.rendering.anchor import anchor_step, geometry_anchor
@@ -390,39 +397,8 @@ def table_shipped(args, log):
         geo = r.database.geometry_for("float32", tuple(origin.tolist()), None)  # the frame's, cached
         dirs = pixel_directions(scene, args.width, args.height, frame)
         mesh = MeshQueries(scene, dirs, cam.position)
-        n = len(dirs)
-        outs = [wp.array(np.tile((event - origin).astype(np.float32), (n, 1)), dtype=wp.vec4, device="cpu"),
-                wp.zeros(n, dtype=wp.int32, device="cpu"), wp.zeros(n, dtype=wp.float32, device="cpu"),
-                wp.zeros(n, dtype=wp.int32, device="cpu")]
-
-        def ours(threads, outs=outs, geo=geo, mesh=mesh, r=r):
-            def launch(tile):
-                a, b = tile
-                wp.launch(r.kernels.cast_rays, dim=b - a, inputs=[geo, outs[0][a:b], mesh.dirs[a:b], 1,
-                                                                  outs[1][a:b], outs[2][a:b], outs[3][a:b]],
-                          device="cpu")
-
-            return mesh.run(launch, threads)
-
-        ours(2)
-        embree = EmbreeQueries.create(mesh, log)
-        tris = len(mesh.indices) // 3
-        for threads in (1, 2):
-            a, b, e = [], [], []
-            for _ in range(args.runs):
-                a.append(ours(threads))
-                b.append(mesh.query(threads))
-                if embree is not None:
-                    e.append(embree.query(threads))
-            hit = outs[1].numpy() >= 0
-            for who, times, faces in (("wp.Mesh", b, mesh.face.numpy()),
-                                      ("Embree", e, None if embree is None else embree.face)):
-                if times:
-                    agree = (hit == (faces >= 0)).mean()
-                    rows.append((f"closest hit only, {Path(stage).stem} static copy ({tris:,} triangles), {threads} thr",
-                                 med(a), med(times), med(times) / med(a),
-                                 f"{who} / ours" + ("" if agree == 1.0 else f" (hit masks agree on {100 * agree:.2f} %)")))
-            log(f"  {stage} {threads} thr: ours {1e3 * med(a):.1f} ms, wp.Mesh {1e3 * med(b):.1f} ms")
+        rows += closest_hits(r, geo, mesh, event - origin,
+                             f"{Path(stage).stem} static copy ({len(mesh.indices) // 3:,} triangles)", args, log)
     return rows
 
 
