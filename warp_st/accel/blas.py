@@ -168,15 +168,12 @@ class BottomLevels:
 
 
 def _trees(jobs: list) -> list:
-    """``shape_tree`` of each (points, triangles) job (None: no tree), two at a time on
-    two threads (the builder's launches run without the GIL) when there are several:
-    the trees are the same either way."""
-    if sum(j is not None for j in jobs) < 2:
-        return [None if j is None else shape_tree(*j) for j in jobs]
-    from concurrent.futures import ThreadPoolExecutor
-
-    with ThreadPoolExecutor(max_workers=2, thread_name_prefix="warp_st-blas") as pool:
-        return list(pool.map(lambda j: None if j is None else shape_tree(*j), jobs))
+    """``shape_tree`` of each (points, triangles) job (None: no tree), one after another.
+    Not two at a time on two threads: in a new process both would make and load the split
+    kernel at once, and Warp's code generation parses Python source, which CPython 3.11's
+    ``ast`` does not allow from two threads (a Dask worker failed with "AST constructor
+    recursion depth mismatch")."""
+    return [None if j is None else shape_tree(*j) for j in jobs]
 
 
 def leaf_order(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
