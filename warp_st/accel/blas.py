@@ -125,21 +125,23 @@ class BottomLevels:
         traced[body_shape[(body_shape >= 0) & (quadric == 0)]] = True
         qs, frames, links, vidx, points, roots, firsts, self.orders = [], [], [], [], [], [], [], []
         node_base = tri_base = vert_base = 0
-        shape_points = [np.asarray(rest, dtype=np.float64).astype(np.float32) for rest in shapes.shape_rest]
-        shape_tris = [np.asarray(tris, dtype=np.int32).reshape(-1, 3) for tris in shapes.shape_triangles]
-        trees = _trees([(p, t) if len(t) and traced[s] else None
-                        for s, (p, t) in enumerate(zip(shape_points, shape_tris))])
-        for s, (pts, tris, tree) in enumerate(zip(shape_points, shape_tris, trees)):
+        # The shapes' trees are built one after another: two at a time on two threads, a new
+        # process (a Dask worker) made and loaded the split kernel from both at once, and
+        # Warp's code generation parses Python source with ``ast``, which CPython 3.11 does
+        # not allow from two threads (docs/design/two-level.md).
+        for s, (rest, tris) in enumerate(zip(shapes.shape_rest, shapes.shape_triangles)):
+            tris = np.asarray(tris, dtype=np.int32).reshape(-1, 3)
+            pts = np.asarray(rest, dtype=np.float64).astype(np.float32)
             firsts.append(vert_base)
             points.append(pts)
             vert_base += len(pts)
-            if tree is None:
+            if len(tris) == 0 or not traced[s]:
                 roots.append(-1)
                 self.orders.append(None)
                 vidx.append(tris)
                 tri_base += len(tris)
                 continue
-            q, frame, link, order = tree
+            q, frame, link, order = shape_tree(pts, tris)
             is_leaf = (link >= 0) & ((link & ((1 << LINK_SHIFT) - 1)) > 0)
             base = np.where(is_leaf, tri_base, node_base).astype(np.int64) << LINK_SHIFT
             links.append(np.where(link >= 0, link.astype(np.int64) + base, -1))
@@ -165,15 +167,6 @@ class BottomLevels:
         self.build_seconds = time.perf_counter() - t0
         self.nbytes = int(self.node_q.nbytes + self.node_frame.nbytes + self.node_link.nbytes + self.vidx.nbytes
                           + self.points.nbytes)
-
-
-def _trees(jobs: list) -> list:
-    """``shape_tree`` of each (points, triangles) job (None: no tree), one after another.
-    Not two at a time on two threads: in a new process both would make and load the split
-    kernel at once, and Warp's code generation parses Python source, which CPython 3.11's
-    ``ast`` does not allow from two threads (a Dask worker failed with "AST constructor
-    recursion depth mismatch")."""
-    return [None if j is None else shape_tree(*j) for j in jobs]
 
 
 def leaf_order(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:

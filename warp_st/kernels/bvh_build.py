@@ -6,7 +6,7 @@ the same as binning axis by axis; the build of a 65k-triangle bottom level is 25
 faster: 71-76 ms against 95-101, medians of 7, alternated), evaluates the surface-area
 heuristic at every bin boundary and partitions its range in place: the order and the
 primitives' centres and boxes with it, so every pass reads them in sequence, not through
-the order (the same trees, the build of a 65k-triangle shape ~10 % faster). The 4D analogue of
+the order (the same trees). The 4D analogue of
 a box's surface area is the sum of its 3-volumes, e_t (e_x e_y + e_y e_z + e_z e_x) +
 e_x e_y e_z: for boxes sharing one time extent (bodies at rest) it orders splits like
 the 3D surface area does.
