@@ -3,9 +3,14 @@
 The fuzz tests (tests/fuzz_helpers.py) draw a fresh seed each run unless
 ``WARP_ST_FUZZ_SEED`` is set; this file prints it in the terminal summary and beside
 each failing test of a module that uses it, and writes ``WARP_ST_FUZZ_REPORT``.
+
+The suite runs on pytest-xdist's workers (pyproject's ``-n auto``): the controller draws
+the run's one seed into the environment before the workers start (they inherit it), and
+each worker hands its cases tried back to the controller, which writes the report.
 """
 import json
 import os
+import secrets
 import sys
 from pathlib import Path
 
@@ -15,6 +20,16 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 os.environ.setdefault("WARP_CACHE_PATH", str(ROOT / ".warp_cache"))
+
+
+SEED_VARIABLE = "WARP_ST_FUZZ_SEED"  # fuzz_helpers.SEED_VARIABLE (read when it is imported)
+
+
+def pytest_configure(config):
+    """The run's fuzz seed, drawn once (in xdist's controller, before its workers start)."""
+    if not hasattr(config, "workerinput") and not os.environ.get(SEED_VARIABLE, "").strip():
+        os.environ[SEED_VARIABLE] = str(secrets.randbits(32))
+    config.fuzz_stats = {}
 
 
 def _fuzz():
@@ -38,13 +53,25 @@ def pytest_runtest_makereport(item, call):
 
 
 def pytest_terminal_summary(terminalreporter):
-    fuzz = _fuzz()
-    if fuzz is not None:
-        terminalreporter.write_line(_replay_line(fuzz))
+    seed = os.environ[SEED_VARIABLE]
+    terminalreporter.write_line(f"fuzz seed: {seed} (replay: {SEED_VARIABLE}={seed})")
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    """xdist's controller: a worker's cases tried, added to the run's."""
+    for kind, n in json.loads(getattr(node, "workeroutput", {}).get("fuzz_stats", "{}")).items():
+        node.config.fuzz_stats[kind] = node.config.fuzz_stats.get(kind, 0) + n
 
 
 def pytest_sessionfinish(session):
     fuzz = _fuzz()
+    stats = session.config.fuzz_stats
+    for kind, n in (fuzz.STATS if fuzz is not None else {}).items():
+        stats[kind] = stats.get(kind, 0) + n
+    if hasattr(session.config, "workeroutput"):  # an xdist worker: the controller writes the report
+        session.config.workeroutput["fuzz_stats"] = json.dumps(stats)
+        return
     target = os.environ.get("WARP_ST_FUZZ_REPORT")
-    if fuzz is not None and target and fuzz.STATS:
-        Path(target).write_text(json.dumps(fuzz.STATS, indent=1, sort_keys=True) + "\n")
+    if target and stats:
+        Path(target).write_text(json.dumps(stats, indent=1, sort_keys=True) + "\n")

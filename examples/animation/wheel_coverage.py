@@ -70,6 +70,20 @@ def march(cam, width: int, height: int, frame: float, grow: float) -> np.ndarray
     return out.reshape(height, width)
 
 
+def away_from_silhouette(inside: np.ndarray, outside: np.ndarray) -> np.ndarray:
+    """(H, W) bool: pixels not within 1 px of one the shrunk (``inside``) and grown
+    (``~outside``) marches disagree on, or whose 3 x 3 neighbours ``inside`` does not agree on."""
+    edge = ~(inside | outside)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            edge |= np.roll(inside, (dy, dx), (0, 1)) != inside
+    away = ~edge
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            away &= ~np.roll(edge, (dy, dx), (0, 1))
+    return away
+
+
 def coverage(frame: float, width: int = 160, height: int = 90, primitive: str | None = None) -> dict:
     """{holes, extras, wheel (march-shrunk pixels), model, tau (the largest |properTime -
     t / gamma| over the wheel's hits, t their lab time: the pivot's proper time from t_ref 0),
@@ -92,14 +106,7 @@ def coverage(frame: float, width: int = 160, height: int = 90, primitive: str | 
     tau = np.abs(image.proper_time[rendered].astype(np.float64) - image.event_time[rendered] / GAMMA)
     cam = scene.camera_state(None, frame)
     inside, outside = march(cam, width, height, frame, -TOL), ~march(cam, width, height, frame, TOL)
-    edge = ~(inside | outside)
-    for dy in (-1, 0, 1):
-        for dx in (-1, 0, 1):
-            edge |= np.roll(inside, (dy, dx), (0, 1)) != inside
-    away = ~edge
-    for dy in (-1, 0, 1):
-        for dx in (-1, 0, 1):
-            away &= ~np.roll(edge, (dy, dx), (0, 1))
+    away = away_from_silhouette(inside, outside)
     model = "worldlines" if is_worldlines(dict(renderer.animation)[index]) else "pieces"
     stats = renderer.describe()
     return {"holes": int((inside & ~rendered & away).sum()), "extras": int((outside & rendered & away).sum()),
