@@ -159,7 +159,7 @@ def _frames_in(label: str) -> list[int]:
 
 
 #: Frames of the interrupted farm run.
-FARM_FRAMES = 120
+FARM_FRAMES = 60
 
 
 def test_cli_interrupt_then_resume_on_workers(tmp_path):

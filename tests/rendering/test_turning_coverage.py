@@ -143,3 +143,30 @@ def test_spinning_rod_shadow_on_the_floor_has_no_light_specks():
     assert blocked.sum() > 1000  # the rod's shadow is in view (~1,500 pixels)
     assert (~dark & blocked).sum() == 0, int((~dark & blocked).sum())
     assert (dark & ~near).sum() == 0, int((dark & ~near).sum())
+
+
+@pytest.mark.parametrize("frame", [40.0])
+def test_coupled_moon_as_pieces_has_no_holes_or_extras_away_from_the_silhouette(frame):
+    """circular_orbit.usda's coupled moon holds a Sphere, so it stays pieces of uniform motion
+    (spacetime/turning.py) contracted along each piece's velocity: their seams (overlapping in
+    time, spacetime/animation.py) let no primary ray through and add none, against the float64
+    march of examples/animation/orbit_coverage.py (its closed form is checked against USD's
+    ComputeLocalToWorldTransform below). 160 x 90: the march's shrink and growth 0.05, above
+    the pieces' half-pixel tolerance (~0.04 at the moon's nearest). At frame 40 the moon's
+    velocity is across the view: the moon left uncontracted (decoupled) gives 183 extras."""
+    from example_scripts import load_example
+
+    orbit = load_example("animation/orbit_coverage.py")
+    stage = Usd.Stage.Open(str(orbit.ORBIT))
+    moon = UsdGeom.Xformable(stage.GetPrimAtPath("/Orbit/Moon"))
+    rest = np.array([0.3, -0.2, 1.1])
+    for t in (13.7, 50.0, 99.5):  # the closed form against USD (the contraction applied about the pivot)
+        m = np.array(moon.ComputeLocalToWorldTransform(Usd.TimeCode(t)), dtype=np.float64)
+        o, v, _th = orbit.pivot(np.array(t))
+        unit = v / np.linalg.norm(v)
+        lab = np.append(rest, 1.0) @ m
+        lab = o + (lab[:3] - o) - (1.0 - np.sqrt(1.0 - v @ v)) * ((lab[:3] - o) @ unit) * unit
+        assert np.allclose(orbit.moon_coordinates(lab, np.array(t)), rest, atol=1e-12)
+    result = orbit.coverage(frame, 160, 90)
+    assert result["moon"] > 500 and result["pieces"] > 100, result
+    assert result["holes"] == 0 and result["extras"] == 0, result
