@@ -294,3 +294,25 @@ def test_the_pivots_proper_time_is_linear_between_samples_within_the_rule(tmp_pa
         if inside.any():
             worst = max(worst, float((np.abs(tau[inside] - chord) / room).max()))
     assert worst <= 5e-4 + 1e-9, worst  # TAU_RATE_TOLERANCE as documented (docs/spec.md §2.1)
+
+
+def test_a_slow_turn_on_a_fast_uniform_pivot_is_not_sampled_at_every_probe(tmp_path):
+    """A coupled box sliding at 0.8c while turning 30 degrees over its 100 time codes: its
+    contraction A(v) is constant, so USD's contracted path is L(t) A and the chords' position
+    rule measures against that. Their samples are fewer than the probes (32 of 64 intervals
+    measured); with the contraction left out of the rule's bound (L(t) against the chords'
+    L A), every chord misses by R (1 - 1 / gamma) and every probe is a sample (64)."""
+    text = HEADER + f'''def Xform "Box" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{{
+    double3 xformOp:translate.timeSamples = {{ 0: (-40, 0, 0), 100: (40, 0, 0) }}
+    double xformOp:rotateZ.timeSamples = {{ 0: 0, 100: -30 }}
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateZ"]
+    {CUBE}
+}}
+'''
+    scene = warp_st.load(write(tmp_path, "slide.usda", text))
+    cams = [scene.camera_state(None, f) for f in (30.0, 60.0)]
+    (i, cuts), = animation_cuts(scene, cams, worldlines=True, **SIZE)
+    assert is_worldlines(cuts) and turning.moving_pivot(scene.bodies[i])
+    probes = len(scene.bodies[i].motion.times) - 1
+    assert worldline_count(cuts) <= 0.75 * probes, (worldline_count(cuts), probes)
