@@ -18,7 +18,7 @@ def make_probe(scalar, vec3, vec4, Geometry, trace, prepare, leaf):
         out_visits: wp.array(dtype=wp.int32),
     ):
         i = wp.tid()
-        prim, s, _lam, visits, _ovf = trace(geo, origins[i], dirs[i], finite, scalar(0.0), scalar(FAR), -1, -1, scalar(0.0), 0)
+        prim, s, _lam, visits, _ovf = trace(geo.ref, origins[i], dirs[i], finite, scalar(0.0), scalar(FAR), -1, -1, scalar(0.0), 0)
         out_prim[i] = prim
         out_s[i] = s
         out_visits[i] = visits

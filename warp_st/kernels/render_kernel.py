@@ -265,7 +265,7 @@ def _make_render(scalar, k, trace, Geometry):
             overflow = int(0)
             depth = int(0)
             while depth <= shd.max_depth:
-                prim, s, lam, vis, ovf = trace(geo, o, n, finite, self_eps(path), scalar(FAR), skip, -1, scalar(0.0), 0)
+                prim, s, lam, vis, ovf = trace(geo.ref, o, n, finite, self_eps(path), scalar(FAR), skip, -1, scalar(0.0), 0)
                 visits += vis
                 overflow = wp.max(overflow, ovf)
                 if prim < 0:

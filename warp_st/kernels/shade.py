@@ -153,7 +153,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
         """1 when the null ray from the hit event back towards the point p at rest reaches it, else 0."""
         to_p = p - x
         d = wp.length(to_p)
-        blocker, _bs, _bl, _bv, _bo = trace(geo, event, to_p / d, finite, s_min, d * (scalar(1.0) - scalar(SELF_EPS)),
+        blocker, _bs, _bl, _bv, _bo = trace(geo.ref, event, to_p / d, finite, s_min, d * (scalar(1.0) - scalar(SELF_EPS)),
                                             tri, body, skip_dist, 1)
         if blocker < 0:
             return scalar(1.0)
@@ -301,7 +301,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
                         vis = sphere_visibility(geo, finite, event, x, pos, radius, l, centre_dist,
                                                 s_min, tri, body, skip)
                     elif leave > scalar(0.0):
-                        blocker, _bs, _bl, _bv, _bo = trace(geo, event, l, finite, s_min, dist, tri, body, skip, 1)
+                        blocker, _bs, _bl, _bv, _bo = trace(geo.ref, event, l, finite, s_min, dist, tri, body, skip, 1)
                         if blocker < 0:
                             vis = scalar(1.0)
                     if vis > scalar(0.0):

@@ -37,6 +37,7 @@ a range of prisms or tetrahedra.
 
 import warp as wp
 
+from warp_st.kernels.struct_ref import referenced
 from warp_st.kernels.traverse import STACK_SIZE, make_traverse
 
 __all__ = ["make_trace", "STACK_SIZE"]
@@ -52,7 +53,7 @@ def make_trace(scalar, primitive: str = "prism"):
     # outward padding of the node boxes, at the same scalar-CPU cost.
     FACE_EPS = 8.0 * 1.12e-16
 
-    @wp.struct
+    @referenced
     class Geometry:
         vert: wp.array(dtype=vec4)
         # Primitive i's data at 4i..4i+3: a tetrahedron's 4 events, or a prism's 3 bottom

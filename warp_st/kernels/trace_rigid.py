@@ -54,6 +54,7 @@ import warp as wp
 from warp_st.kernels.blas import make_blas_query
 from warp_st.kernels.layout import ANALYTIC
 from warp_st.kernels.quadrics import make_quadrics
+from warp_st.kernels.struct_ref import referenced
 from warp_st.kernels.trace import make_trace
 from warp_st.kernels.traverse import make_box_ops, make_traverse
 
@@ -82,7 +83,7 @@ def make_trace_rigid(scalar, tets: bool = False):
     TetGeometry, tet_trace = make_trace(scalar, "tet")[:2] if tets else (None, None)
     with_tets = tets  # the struct's field is named tets
 
-    @wp.struct
+    @referenced
     class Geometry:
         # Shading tables (global triangles, each a primitive: ``prim_lookup``): each
         # shape's triangles (vertex indices in the shape), where each body's shape starts
@@ -245,7 +246,7 @@ def make_trace_rigid(scalar, tets: bool = False):
             body = g.seg_body[si]
             if wp.static(tets):
                 if body < 0:  # the deforming bodies' tetrahedra: the tet path's traversal and test
-                    tp, ts, tl, _visits, _ovf = tet_trace(g.tets, o, n, finite, s_min, best, skip_tri, skip_body,
+                    tp, ts, tl, _visits, _ovf = tet_trace(g.tets.ref, o, n, finite, s_min, best, skip_tri, skip_body,
                                                           skip_dist, any_hit)
                     if tp >= 0:
                         best = ts

@@ -132,9 +132,11 @@ def make_traverse(scalar, Geometry, prepare, leaf):
 
     sort4 = make_sort4(scalar)
 
+    GeometryRef, expand = Geometry.Ref, Geometry.expand
+
     @wp.func
     def trace(
-        g: Geometry,
+        r: GeometryRef,
         o: vec4,
         n: vec3,
         finite: int,
@@ -151,6 +153,7 @@ def make_traverse(scalar, Geometry, prepare, leaf):
         ``skip_dist``, are ignored (secondary rays leaving a tessellated surface).
         Near child first with a fixed stack; an overflow is reported, never silent.
         """
+        g = expand(r)  # the pointers to the struct (see kernels/struct_ref.py)
         # 1 / dt: dt = -1 on the past lightcone, 0 with infinite light speed.
         inv_t = scalar(BIG)
         if finite != 0:

@@ -18,6 +18,7 @@ from warp_st.core.doppler_colour import cached_doppler_table
 from warp_st.core.light_samples import area_samples
 from warp_st.core.scene import Light
 from warp_st.kernels import Kernels
+from warp_st.kernels.struct_ref import seal
 from warp_st.rendering.device_lights import light_track
 from warp_st.rendering.device_textures import sky_struct, tet_corners, texture_tables
 from warp_st.spacetime.extrude import SpacetimeMesh
@@ -152,6 +153,7 @@ def make_geometry(k: Kernels, static: StaticArrays, mesh: SpacetimeMesh, bvh: Fl
     g.tri_body = static.tri_body
     g.body_object = static.body_object
     set_nodes(k, g, static.wide, static.node_link, bvh, origin, ns)
+    seal(g)
     return g
 
 

@@ -16,6 +16,7 @@ from warp_st.accel.bvh import FlatBVH
 from warp_st.accel.bvh_wide import collapse
 from warp_st.accel.instances import BottomLevels
 from warp_st.kernels import Kernels
+from warp_st.kernels.struct_ref import seal
 from warp_st.rendering.device import ShadingTables, outward, set_nodes, shared
 from warp_st.spacetime.rigid import MotionSegments, RigidShapes, shading_tables
 
@@ -92,4 +93,5 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     g.body_anchor = wp.array((static.body_frame - origin).reshape(-1, 4), dtype=wp.vec4d, device=_DEVICE)
     set_nodes(k, g, static.wide, static.node_link, top, origin, ns)
     static.add_leaves(k, g, origin)
+    seal(g)
     return g
