@@ -79,9 +79,9 @@ def seal(instance) -> None:
             continue
         value = getattr(instance, field)
         if isinstance(var.type, wp.array):
-            if value is not None and not value.is_contiguous:
+            if value is not None and value.size and not value.is_contiguous:
                 raise ValueError(f"{instance._cls.key}.{field}: a referenced array must be contiguous")
-            setattr(ref, field, wp.uint64(value.ptr if value is not None else 0))
+            setattr(ref, field, wp.uint64((value.ptr or 0) if value is not None else 0))
             if var.type.ndim == 2:
                 setattr(ref, f"{field}_cols", value.shape[1] if value is not None else 0)
         elif hasattr(var.type, "Ref"):
