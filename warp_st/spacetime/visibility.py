@@ -580,19 +580,20 @@ def _retarded_roots(w: np.ndarray, v: np.ndarray, k) -> np.ndarray:
         first, second = q / a, np.where(q != 0.0, c / q, q / a)
     u = np.where(np.abs(g(second)) < np.abs(g(first)), second, first)
     # A lower bound is what the window needs: step down past any rounding (near
-    # |v| = 1 the slope 1 - |v| is small and the root ill-conditioned).
-    step = 1e-12 * (1.0 + np.abs(u) + np.sqrt(c))
-    high = g(u) > 0.0
+    # |v| = 1 the slope 1 - |v| is small and the root ill-conditioned) ...
+    u = _step_down(u, 1e-12 * (1.0 + np.abs(u) + np.sqrt(c)), lambda u: g(u) > 0.0)
+
+    def high(tau):  # ... and past the rounding of k + u, 4 ulps clear of how |.| is rounded
+        dist = np.linalg.norm(w[None] + tau[:, None] * v[None], axis=1)  # (a vector's norm sums
+        return tau - dist + 4.0 * np.spacing(np.abs(tau) + dist) > k  # in another order, CPU by CPU)
+    return _step_down(k + u, np.spacing(np.abs(k + u)), high)
+
+
+def _step_down(x: np.ndarray, step: np.ndarray, above) -> np.ndarray:
+    """``x`` lowered by ``step``, doubling, where ``above(x)`` holds, until it holds nowhere."""
+    high = above(x)
     while high.any():
-        u = np.where(high, u - step, u)
+        x = np.where(high, x - step, x)
         step = step * 2.0
-        high = g(u) > 0.0
-    # and past the rounding of k + u itself (an ulp of tau, doubling)
-    tau = k + u
-    step = np.spacing(np.abs(tau))
-    high = tau - np.linalg.norm(w[None] + tau[:, None] * v[None], axis=1) > k
-    while high.any():
-        tau = np.where(high, tau - step, tau)
-        step = step * 2.0
-        high = tau - np.linalg.norm(w[None] + tau[:, None] * v[None], axis=1) > k
-    return tau
+        high = above(x)
+    return x
