@@ -24,12 +24,12 @@ from warp_st.core.limits import resolve_max_memory
 from warp_st.core.scene import CameraState, Scene, SceneError
 from warp_st.kernels.layout import PRIMITIVES
 from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
-from warp_st.output.channels import LOW_TIME_CHANNELS, join_time, split_time
 from warp_st.output.cryptomatte import image_layers, resolve_layers
-from warp_st.output.film import Image, quantize_relative
+from warp_st.output.film import Image
 from warp_st.rendering import database_cache, frame_inputs
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
 from warp_st.rendering.database_build import build_database
+from warp_st.rendering.film_planes import copy_film
 from warp_st.rendering.frame_inputs import camera_key
 from warp_st.rendering.tile_pool import tile_pool
 from warp_st.rendering.warp_init import init_warp
@@ -518,7 +518,7 @@ class Renderer:
         kernel_seconds = time.perf_counter() - t_kernel
         if film.overflow.numpy()[0]:
             raise RuntimeError("BVH traversal stack overflow: the image would be wrong (please report)")
-        image = self._image(film, cam, frame)  # copies every plane: the film is reused
+        image = self._image(film, cam, frame, n_threads)  # copies every plane: the film is reused
         self.stats.last_mean_visits = frame_inputs.film_visits(film, n_pix)
         frame_inputs.give_back(self.database, film_key, film)
         self.stats.last_kernel_seconds = kernel_seconds
@@ -526,35 +526,14 @@ class Renderer:
         self.stats.rays = n_pix
         return image
 
-    def _image(self, film, cam: CameraState, frame: float) -> Image:
+    def _image(self, film, cam: CameraState, frame: float, threads: int = 1) -> Image:
         h, w = self.height, self.width
         out = frame_inputs.image_planes(self.database, h, w)  # every plane copied out of the (reused) film
-        np.copyto(out["rgba"], film.rgba.numpy().reshape(h, w, 4), casting="unsafe")
         # The kernels' times are lab times; the image's are time codes (lab / the light speed, §3.1).
         per_code = float(self.scene.light_speed)
-        rel = film.event_time.numpy().reshape(h, w)
         origin = float(cam.time) / per_code
-        object_id = film.object_id.numpy().reshape(h, w)
-        if self.object_of is not None:  # an animated body's pieces are one object
-            object_id = np.where(object_id > 0, self.object_of[np.maximum(object_id, 1) - 1] + 1, 0)
-        np.copyto(out["object_id"], object_id, casting="unsafe")
-        source_rel = film.source_time.numpy().reshape(h, w)
-        if per_code != 1.0:
-            rel, source_rel = rel.astype(np.float64) / per_code, source_rel.astype(np.float64) / per_code
-        # Absolute times, quantised exactly as the EXR stores them: float32 relative to t_c,
-        # and in float64 renders with each one's float32 residual beside it (channels.py).
-        lows = {}
-        for name, value in (("spacetime.eventTime", rel), ("spacetime.sourceTime", source_rel)):
-            plane = out["event_time" if name == "spacetime.eventTime" else "source_time"]
-            if self.precision == Precision.FLOAT64:
-                hi, lows[LOW_TIME_CHANNELS[name]] = split_time(value.astype(np.float64) + origin, origin)
-                np.copyto(plane, join_time(hi, lows[LOW_TIME_CHANNELS[name]], origin))
-            else:  # the film's float32 plane serves as the rounding's scratch (the kernel rewrites it)
-                quantize_relative(value, origin, out=plane, scratch=value if value.dtype == np.float32 else None)
-        np.divide(film.proper_time.numpy().reshape(h, w), np.float32(per_code), out=out["proper_time"],
-                  casting="unsafe")
-        for name in ("depth", "doppler", "bounces"):
-            np.copyto(out[name], getattr(film, name).numpy().reshape(h, w), casting="unsafe")
+        lows = copy_film(film, out, h, w, origin=origin, per_code=per_code,
+                         float64=self.precision == Precision.FLOAT64, object_of=self.object_of, threads=threads)
         paths = self.scene.body_paths()
         tables = self.database.shapes if self.primitive == "rigid" else self.mesh
         crypto_planes, layers = image_layers(
