@@ -17,7 +17,6 @@ system, so the RSS is what is held, not the build's peak).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import gc
 import os
 import resource
@@ -38,17 +37,10 @@ def rss_bytes() -> int:
 
 def scene(segments: int, distinct: bool):
     from bench_two_level import spheres_scene
+    from benchlib.scenes import distinct_shapes
 
     s = spheres_scene(segments, moving=False)
-    if not distinct:
-        return s
-    bodies = []
-    for i, b in enumerate(s.bodies):
-        surf = b.surfaces[0]
-        scale = 1.0 + 1e-3 * i  # another radius: another shape
-        pts = (surf.points - b.origin) * scale + b.origin
-        bodies.append(dataclasses.replace(b, surfaces=(dataclasses.replace(surf, points=pts),)))
-    return dataclasses.replace(s, bodies=tuple(bodies))
+    return distinct_shapes(s) if distinct else s
 
 
 def main(argv=None) -> int:

@@ -24,6 +24,8 @@ drift between repetitions cancels; the CPU model heads the table.
   against ``wp.Mesh`` and Embree build + query (ratio = ours / theirs, <= 2 is the goal),
   and the builds alone per million triangles: our database (bottom levels, top level,
   shading tables) against ``wp.Mesh`` and Embree over the same triangles;
+- distinct: the same first render with each sphere a shape of its own (16 bottom levels
+  to build instead of 2, as in a stage without instancing);
 - cubes:   warm render of 1,000 cubes moving at up to 0.95c (a third decoupled), lit by
   one distant light (shadow rays), against the same cubes at rest;
 - sequence: frames 0 and 10,000 of the moving spheres from one renderer (first
@@ -53,7 +55,7 @@ for _path in (ROOT, Path(__file__).resolve().parent):  # warp_st from this check
     if str(_path) not in sys.path:
         sys.path.insert(0, str(_path))
 
-TABLES = ("static", "trace", "shipped", "parade", "motion", "first", "cubes", "sequence")
+TABLES = ("static", "trace", "shipped", "parade", "motion", "first", "distinct", "cubes", "sequence")
 #: The clock of the ray queries' timings (``MeshQueries.run``): wall time, or with
 #: ``--clock cpu`` the process's CPU time, which other jobs on a shared machine change far
 #: less (it sums both threads' on 2 threads: a cost, not a latency).
@@ -402,10 +404,9 @@ def table_shipped(args, log):
     return rows
 
 
-def table_first(args, log):
-    from warp_st.rendering.renderer import Renderer
-
-    scene = spheres_scene(256, moving=False)
+def first_renders(scene, label, args, log):
+    """Rows: the first render of ``scene`` (a new Scene object each run, kernels loaded)
+    against wp.Mesh's and Embree's build plus query of the same rays, 1 and 2 threads."""
     tris = sum(b.triangle_count for b in scene.bodies)
     mesh = MeshQueries(scene, pixel_directions(scene, args.width, args.height))
     embree = EmbreeQueries.create(mesh, log)
@@ -421,10 +422,19 @@ def table_first(args, log):
                 emb.append(embree.build() + embree.query(threads))
         for who, times in (("wp.Mesh", theirs), ("Embree", emb)):
             if times:
-                rows.append((f"first render, {tris:,} static triangles, {threads} thr", med(ours), med(times),
+                rows.append((f"first render, {tris:,} static triangles{label}, {threads} thr", med(ours), med(times),
                              med(ours) / med(times), f"ours / ({who} build + query)"))
-                log(f"  first {threads} thr: ours {1e3 * med(ours):.1f} ms, {who} build+query "
+                log(f"  first{label} {threads} thr: ours {1e3 * med(ours):.1f} ms, {who} build+query "
                     f"{1e3 * med(times):.1f} ms")
+    return rows, mesh, embree
+
+
+def table_first(args, log):
+    from warp_st.rendering.renderer import Renderer
+
+    scene = spheres_scene(256, moving=False)
+    tris = sum(b.triangle_count for b in scene.bodies)
+    rows, mesh, embree = first_renders(scene, "", args, log)
     # The builds alone, per million triangles: our database for the frame (the renderer's
     # construction: shapes and shading tables, bottom levels, segments, top level) against the
     # 3D tracers' builds over the same triangles.
@@ -457,6 +467,14 @@ def table_first(args, log):
     log("  builds per M triangles: " + ", ".join(f"{k} {1e3 * (1e6 / distinct if k == 'trees' else per_m) * med(v):.0f}"
                                                  " ms" for k, v in builds.items() if v))
     return rows
+
+
+def table_distinct(args, log):
+    """The first render of the same 1.04M triangles with no two spheres sharing a shape
+    (16 bottom levels to build, not 2)."""
+    from benchlib.scenes import distinct_shapes
+
+    return first_renders(distinct_shapes(spheres_scene(256, moving=False)), " in 16 distinct shapes", args, log)[0]
 
 
 def table_cubes(args, log):
@@ -511,7 +529,7 @@ def main(argv=None) -> int:
     for name in tables:
         log(f"[{name}]")
         rows += {"static": table_static, "trace": table_trace, "shipped": table_shipped, "parade": table_parade, "motion": table_motion, "first": table_first,
-                 "cubes": table_cubes, "sequence": table_sequence}[name](args, log)
+                 "distinct": table_distinct, "cubes": table_cubes, "sequence": table_sequence}[name](args, log)
     print(f"CPU: {cpu_model()}; medians of {args.runs} runs, both sides timed back to back in each run")
     print()
     print("| measure | A ms | B ms | ratio | ratio is |")

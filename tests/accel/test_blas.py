@@ -29,6 +29,7 @@ from warp_st.accel.blas import BottomLevels
 from warp_st.core import tessellate
 from warp_st.kernels import get_kernels
 from warp_st.kernels.blas import make_blas_query
+from warp_st.kernels.layout import LINK_SHIFT
 from warp_st.rendering.warp_init import init_warp
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -444,3 +445,75 @@ def test_quantised_boxes_contain_the_exact_ones():
             for decoded in (separate, fused):
                 ok = decoded <= corner if below else decoded >= corner
                 assert (ok | full).all(), (k, int((~ok & ~full).sum()))
+
+
+def _distinct_shapes(count: int):
+    """``count`` shapes no two alike (spheres of other tessellations and radii, a cube), as
+    ``BottomLevels`` reads them, with a shape without triangles and an untraced one between."""
+    rest, tris = [], []
+    for i in range(count):
+        p, t = tessellate.sphere(1.0 + 0.1 * i, 8 + 4 * i)[:2] if i % 3 else tessellate.cube(1.0 + i)
+        rest.append(np.asarray(p, np.float32))
+        tris.append(np.asarray(t, np.int32).reshape(-1, 3))
+
+    class _Shapes:
+        shape_rest = rest + [np.zeros((0, 3), np.float32)]
+        shape_triangles = tris + [np.zeros((0, 3), np.int32)]
+        body_shape = np.array([*range(count), count, 1])
+        body_quadric = np.array([0] * count + [0, 0])
+
+    return _Shapes
+
+
+def test_shapes_built_on_threads_are_the_serial_builds(monkeypatch):
+    """``BottomLevels`` builds the shapes' trees on a pool of one thread per core: every
+    table equals the one-after-another build's (each shape's ``shape_tree`` alone), byte
+    for byte, with two workers even on a machine of one core."""
+    from warp_st.accel import blas
+
+    shapes = _distinct_shapes(7)
+    serial = [blas.shape_tree(p, t) for p, t in zip(shapes.shape_rest[:7], shapes.shape_triangles[:7])]
+    monkeypatch.setattr(blas.os, "cpu_count", lambda: 2)
+    blas._SHAPE_POOL.clear()  # a pool of the patched size
+    built = BottomLevels(shapes)
+    assert blas._SHAPE_POOL, "the pool was not used"
+    node = tri = 0
+    for s, (q, frame, link, order) in enumerate(serial):
+        w = len(q)
+        assert built.body_root[s] == node and built.orders[s] is not None
+        np.testing.assert_array_equal(built.orders[s], order)
+        np.testing.assert_array_equal(built.node_q[node:node + w], q)
+        np.testing.assert_array_equal(built.node_frame[node:node + w], frame)
+        np.testing.assert_array_equal(built.vidx[tri:tri + len(order)], shapes.shape_triangles[s][order])
+        local = built.node_link[node:node + w].astype(np.int64)
+        is_leaf = (link >= 0) & ((link & ((1 << LINK_SHIFT) - 1)) > 0)
+        base = np.where(is_leaf, tri, node) << LINK_SHIFT
+        np.testing.assert_array_equal(local, np.where(link >= 0, link + base, -1))
+        node, tri = node + w, tri + len(order)
+    assert built.body_root[7] == -1 and built.body_root[8] == built.body_root[1]  # no triangles; a shared shape
+
+
+def test_the_split_kernel_is_made_on_the_calling_thread(monkeypatch):
+    """In a new process the split kernel is made (and loaded, at its first launch) by the
+    first shape's build, on the calling thread, before other threads build shapes: two
+    threads making it at once broke Warp's code generation (docs/design/two-level.md).
+    Oracle: the thread of every ``make_sah_split`` call, from an empty kernel cache."""
+    import threading
+
+    from warp_st.accel import blas, bvh
+    from warp_st.kernels import bvh_build
+
+    made = []
+    real = bvh_build.make_sah_split
+
+    def recording(*args, **kwargs):
+        made.append(threading.current_thread())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(bvh_build, "make_sah_split", recording)
+    monkeypatch.setattr(bvh, "_SAH_KERNELS", {})  # as in a new process
+    monkeypatch.setattr(blas.os, "cpu_count", lambda: 2)
+    blas._SHAPE_POOL.clear()
+    built = BottomLevels(_distinct_shapes(7))
+    assert (built.body_root[:7] >= 0).all() and blas._SHAPE_POOL
+    assert made == [threading.current_thread()]

@@ -32,7 +32,9 @@ All shapes share one set of arrays (``kernels/blas.py`` traverses them):
 """
 from __future__ import annotations
 
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -125,23 +127,21 @@ class BottomLevels:
         traced[body_shape[(body_shape >= 0) & (quadric == 0)]] = True
         qs, frames, links, vidx, points, roots, firsts, self.orders = [], [], [], [], [], [], [], []
         node_base = tri_base = vert_base = 0
-        # The shapes' trees are built one after another: two at a time on two threads, a new
-        # process (a Dask worker) made and loaded the split kernel from both at once, and
-        # Warp's code generation parses Python source with ``ast``, which CPython 3.11 does
-        # not allow from two threads (docs/design/two-level.md).
-        for s, (rest, tris) in enumerate(zip(shapes.shape_rest, shapes.shape_triangles)):
-            tris = np.asarray(tris, dtype=np.int32).reshape(-1, 3)
-            pts = np.asarray(rest, dtype=np.float64).astype(np.float32)
+        shapes_in = [(np.asarray(rest, dtype=np.float64).astype(np.float32),
+                      np.asarray(tris, dtype=np.int32).reshape(-1, 3))
+                     for rest, tris in zip(shapes.shape_rest, shapes.shape_triangles)]
+        trees = _build_trees(shapes_in, [s for s, (_, tris) in enumerate(shapes_in) if len(tris) and traced[s]])
+        for s, (pts, tris) in enumerate(shapes_in):
             firsts.append(vert_base)
             points.append(pts)
             vert_base += len(pts)
-            if len(tris) == 0 or not traced[s]:
+            if s not in trees:
                 roots.append(-1)
                 self.orders.append(None)
                 vidx.append(tris)
                 tri_base += len(tris)
                 continue
-            q, frame, link, order = shape_tree(pts, tris)
+            q, frame, link, order = trees[s]
             is_leaf = (link >= 0) & ((link & ((1 << LINK_SHIFT) - 1)) > 0)
             base = np.where(is_leaf, tri_base, node_base).astype(np.int64) << LINK_SHIFT
             links.append(np.where(link >= 0, link.astype(np.int64) + base, -1))
@@ -167,6 +167,31 @@ class BottomLevels:
         self.build_seconds = time.perf_counter() - t0
         self.nbytes = int(self.node_q.nbytes + self.node_frame.nbytes + self.node_link.nbytes + self.vidx.nbytes
                           + self.points.nbytes)
+
+
+_SHAPE_POOL: list = []
+
+
+def _build_trees(shapes_in: list, built: list) -> dict:
+    """``shape_tree`` of each shape in ``built`` (indices into ``shapes_in``, (points,
+    triangles) pairs), by shape index. The first is built on the calling thread, so the
+    split kernel is made and loaded before any other thread launches it (Warp's code
+    generation parses Python with ``ast``, which CPython 3.11 does not allow on two
+    threads at once: docs/design/two-level.md); the rest on a pool of one thread per core
+    (its own: the builder's level pool serves their wide levels). Each tree depends on its
+    shape alone, so the trees are the serial build's whatever the thread count."""
+    trees = {}
+    if built:
+        trees[built[0]] = shape_tree(*shapes_in[built[0]])
+    rest = built[1:]
+    if min(len(rest), os.cpu_count() or 1) <= 1:
+        trees.update((s, shape_tree(*shapes_in[s])) for s in rest)
+        return trees
+    if not _SHAPE_POOL:
+        _SHAPE_POOL.append(ThreadPoolExecutor(max_workers=os.cpu_count() or 1, thread_name_prefix="warp_st-blas"))
+    rest = sorted(rest, key=lambda s: -len(shapes_in[s][1]))  # the largest first: the small ones fill in at the end
+    trees.update(zip(rest, _SHAPE_POOL[0].map(lambda s: shape_tree(*shapes_in[s]), rest)))
+    return trees
 
 
 def leaf_order(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:

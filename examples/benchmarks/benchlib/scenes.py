@@ -54,6 +54,17 @@ def cube_cloud_scene(count: int, seed: int = 1, *, lights=None):
     return synthetic_scene("cubes", bodies, [sun()] if lights is None else list(lights), cam)
 
 
+def distinct_shapes(scene):
+    """``scene`` with every body's one surface scaled about its pivot by 1 + 0.001 i (body
+    i): the same rays meet nearly the same shapes, but no two bodies share one (no instancing)."""
+    bodies = []
+    for i, b in enumerate(scene.bodies):
+        surf = b.surfaces[0]
+        pts = (surf.points - b.origin) * (1.0 + 1e-3 * i) + b.origin
+        bodies.append(dataclasses.replace(b, surfaces=(dataclasses.replace(surf, points=pts),)))
+    return dataclasses.replace(scene, bodies=tuple(bodies))
+
+
 def load_parade():
     import warp_st
 
