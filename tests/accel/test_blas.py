@@ -494,10 +494,10 @@ def test_shapes_built_on_threads_are_the_serial_builds(monkeypatch):
 
 
 def test_the_split_kernel_is_made_on_the_calling_thread(monkeypatch):
-    """In a new process the split kernel is made (and loaded, at its first launch) by the
-    first shape's build, on the calling thread, before other threads build shapes: two
-    threads making it at once broke Warp's code generation (docs/design/two-level.md).
-    Oracle: the thread of every ``make_sah_split`` call, from an empty kernel cache."""
+    """In a new process the split kernel is made and loaded on the calling thread
+    (``bvh.load_builder``) before the pool's threads build shapes: two threads making it
+    at once broke Warp's code generation (docs/design/two-level.md). Oracle: the thread of
+    every ``make_sah_split`` call, from an empty kernel cache."""
     import threading
 
     from warp_st.accel import blas, bvh

@@ -38,13 +38,18 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from warp_st.accel.bvh import build_bvh
+from warp_st.accel.bvh import build_bvh, load_builder
 from warp_st.accel.bvh_wide import collapse, wide_boxes
 from warp_st.core.extent import column_max, column_min
 from warp_st.kernels.layout import LINK_SHIFT, WIDTH
 from warp_st.spacetime.rigid import RigidShapes, renumbered
 
 __all__ = ["BottomLevels", "bottom_levels", "leaf_order", "shape_tree"]
+
+#: Ranges of up to 4 triangles always become leaves: two levels fewer to build (a third
+#: of the build), queries as fast within the spread of single runs.
+SHAPE_LEAF = 4
+
 
 def shape_tree(points: np.ndarray, triangles: np.ndarray):
     """The 4-wide tree of one shape: (q (W, 24) uint8 and frame (W, 6) float32, the
@@ -59,9 +64,7 @@ def shape_tree(points: np.ndarray, triangles: np.ndarray):
     n = len(triangles)
     prim_lo = np.concatenate([np.zeros((n, 1)), lo3], axis=1)
     prim_hi = np.concatenate([np.full((n, 1), span), hi3], axis=1)
-    # Ranges of up to 4 triangles always become leaves: two levels fewer to build (a
-    # third of the build), queries as fast within the spread of single runs.
-    bvh = build_bvh(prim_lo, prim_hi, "tri", leaf_size=4, uniform_t=True)
+    bvh = build_bvh(prim_lo, prim_hi, "tri", leaf_size=SHAPE_LEAF, uniform_t=True)
     wide = collapse(bvh)
     lo16, hi16 = wide_boxes(wide, bvh.node_lo, bvh.node_hi)
     # One float32 step outward: a ray along a box's face with a zero direction component
@@ -174,24 +177,17 @@ _SHAPE_POOL: list = []
 
 def _build_trees(shapes_in: list, built: list) -> dict:
     """``shape_tree`` of each shape in ``built`` (indices into ``shapes_in``, (points,
-    triangles) pairs), by shape index. The first is built on the calling thread, so the
-    split kernel is made and loaded before any other thread launches it (Warp's code
-    generation parses Python with ``ast``, which CPython 3.11 does not allow on two
-    threads at once: docs/design/two-level.md); the rest on a pool of one thread per core
-    (its own: the builder's level pool serves their wide levels). Each tree depends on its
-    shape alone, so the trees are the serial build's whatever the thread count."""
-    trees = {}
-    if built:
-        trees[built[0]] = shape_tree(*shapes_in[built[0]])
-    rest = built[1:]
-    if min(len(rest), os.cpu_count() or 1) <= 1:
-        trees.update((s, shape_tree(*shapes_in[s])) for s in rest)
-        return trees
+    triangles) pairs), by shape index, on a pool of one thread per core (its own: the
+    builder's level pool serves their wide levels), largest first. The split kernel is
+    made and loaded first, on the calling thread (``bvh.load_builder``). Each tree depends
+    on its shape alone, so the trees are the serial build's whatever the thread count."""
+    if min(len(built), os.cpu_count() or 1) <= 1:
+        return {s: shape_tree(*shapes_in[s]) for s in built}
+    load_builder("tri", leaf_size=SHAPE_LEAF, uniform_t=True)  # the same kernel as shape_tree's builds
     if not _SHAPE_POOL:
         _SHAPE_POOL.append(ThreadPoolExecutor(max_workers=os.cpu_count() or 1, thread_name_prefix="warp_st-blas"))
-    rest = sorted(rest, key=lambda s: -len(shapes_in[s][1]))  # the largest first: the small ones fill in at the end
-    trees.update(zip(rest, _SHAPE_POOL[0].map(lambda s: shape_tree(*shapes_in[s]), rest)))
-    return trees
+    order = sorted(built, key=lambda s: -len(shapes_in[s][1]))  # the small ones fill in at the end
+    return dict(zip(order, _SHAPE_POOL[0].map(lambda s: shape_tree(*shapes_in[s]), order)))
 
 
 def leaf_order(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:

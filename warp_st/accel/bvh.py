@@ -17,7 +17,7 @@ import numpy as np
 
 from warp_st.kernels.layout import MAX_DEPTH, SAH_FREE_DEPTH
 
-__all__ = ["FlatBVH", "build_bvh", "LEAF_SIZE", "MAX_DEPTH"]
+__all__ = ["FlatBVH", "build_bvh", "load_builder", "LEAF_SIZE", "MAX_DEPTH"]
 
 #: Ranges this small always become leaves.
 LEAF_SIZE = 4
@@ -88,6 +88,16 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
         depth=depth,
         build_seconds=time.perf_counter() - start_clock,
     )
+
+
+def load_builder(primitive: str = "tet", *, leaf_size: int = LEAF_SIZE, uniform_t: bool = False) -> None:
+    """Make and load the split kernel ``build_bvh`` uses with these arguments, on the
+    calling thread, so that builds on other threads only launch it (Warp's code
+    generation parses Python with ``ast``, which CPython 3.11 does not allow on two
+    threads at once: docs/design/two-level.md)."""
+    import warp as wp
+
+    wp.load_module(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t).module, device="cpu")
 
 
 def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, uniform_t: bool):
