@@ -465,6 +465,19 @@ def _distinct_shapes(count: int):
     return _Shapes
 
 
+def _two_workers(monkeypatch) -> list:
+    """A worker pool (``core.workers``) of two threads for this test, even on one core:
+    the list that holds it once it is started."""
+    from warp_st.accel import blas
+    from warp_st.core import workers
+
+    monkeypatch.setattr(workers, "worker_count", lambda: 2)
+    monkeypatch.setattr(blas, "worker_count", lambda: 2)
+    pool: list = []
+    monkeypatch.setattr(workers, "_POOL", pool)
+    return pool
+
+
 def test_shapes_built_on_threads_are_the_serial_builds(monkeypatch):
     """``BottomLevels`` builds the shapes' trees on a pool of one thread per core: every
     table equals the one-after-another build's (each shape's ``shape_tree`` alone), byte
@@ -473,10 +486,9 @@ def test_shapes_built_on_threads_are_the_serial_builds(monkeypatch):
 
     shapes = _distinct_shapes(7)
     serial = [blas.shape_tree(p, t) for p, t in zip(shapes.shape_rest[:7], shapes.shape_triangles[:7])]
-    monkeypatch.setattr(blas.os, "cpu_count", lambda: 2)
-    blas._SHAPE_POOL.clear()  # a pool of the patched size
+    pool = _two_workers(monkeypatch)
     built = BottomLevels(shapes)
-    assert blas._SHAPE_POOL, "the pool was not used"
+    assert pool, "the pool was not used"
     node = tri = 0
     for s, (q, frame, link, order) in enumerate(serial):
         w = len(q)
@@ -512,8 +524,7 @@ def test_the_split_kernel_is_made_on_the_calling_thread(monkeypatch):
 
     monkeypatch.setattr(bvh_build, "make_sah_split", recording)
     monkeypatch.setattr(bvh, "_SAH_KERNELS", {})  # as in a new process
-    monkeypatch.setattr(blas.os, "cpu_count", lambda: 2)
-    blas._SHAPE_POOL.clear()
+    pool = _two_workers(monkeypatch)
     built = BottomLevels(_distinct_shapes(7))
-    assert (built.body_root[:7] >= 0).all() and blas._SHAPE_POOL
+    assert (built.body_root[:7] >= 0).all() and pool
     assert made == [threading.current_thread()]
