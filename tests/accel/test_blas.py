@@ -466,16 +466,20 @@ def _distinct_shapes(count: int):
 
 
 def _two_workers(monkeypatch) -> list:
-    """A worker pool (``core.workers``) of two threads for this test, even on one core:
-    the list that holds it once it is started."""
+    """Two cores for ``BottomLevels``, even on a machine of one: the list of the pool
+    sizes it asks ``core.thread_pool`` for."""
     from warp_st.accel import blas
-    from warp_st.core import workers
 
-    monkeypatch.setattr(workers, "worker_count", lambda: 2)
-    monkeypatch.setattr(blas, "worker_count", lambda: 2)
-    pool: list = []
-    monkeypatch.setattr(workers, "_POOL", pool)
-    return pool
+    asked: list = []
+    real = blas.thread_pool
+
+    def recording(n_threads):
+        asked.append(n_threads)
+        return real(n_threads)
+
+    monkeypatch.setattr(blas.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(blas, "thread_pool", recording)
+    return asked
 
 
 def test_shapes_built_on_threads_are_the_serial_builds(monkeypatch):
@@ -486,9 +490,9 @@ def test_shapes_built_on_threads_are_the_serial_builds(monkeypatch):
 
     shapes = _distinct_shapes(7)
     serial = [blas.shape_tree(p, t) for p, t in zip(shapes.shape_rest[:7], shapes.shape_triangles[:7])]
-    pool = _two_workers(monkeypatch)
+    asked = _two_workers(monkeypatch)
     built = BottomLevels(shapes)
-    assert pool, "the pool was not used"
+    assert asked == [2], "the pool was not used"
     node = tri = 0
     for s, (q, frame, link, order) in enumerate(serial):
         w = len(q)
@@ -512,7 +516,7 @@ def test_the_split_kernel_is_made_on_the_calling_thread(monkeypatch):
     every ``make_sah_split`` call, from an empty kernel cache."""
     import threading
 
-    from warp_st.accel import blas, bvh
+    from warp_st.accel import bvh
     from warp_st.kernels import bvh_build
 
     made = []
@@ -524,7 +528,7 @@ def test_the_split_kernel_is_made_on_the_calling_thread(monkeypatch):
 
     monkeypatch.setattr(bvh_build, "make_sah_split", recording)
     monkeypatch.setattr(bvh, "_SAH_KERNELS", {})  # as in a new process
-    pool = _two_workers(monkeypatch)
+    asked = _two_workers(monkeypatch)
     built = BottomLevels(_distinct_shapes(7))
-    assert (built.body_root[:7] >= 0).all() and pool
+    assert (built.body_root[:7] >= 0).all() and asked == [2]
     assert made == [threading.current_thread()]

@@ -32,6 +32,7 @@ All shapes share one set of arrays (``kernels/blas.py`` traverses them):
 """
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
@@ -39,7 +40,7 @@ import numpy as np
 from warp_st.accel.bvh import build_bvh, load_builder
 from warp_st.accel.bvh_wide import collapse, wide_boxes
 from warp_st.core.extent import column_max, column_min
-from warp_st.core.workers import worker_count, worker_pool
+from warp_st.core.thread_pool import thread_pool
 from warp_st.kernels.layout import LINK_SHIFT, WIDTH
 from warp_st.spacetime.rigid import RigidShapes, renumbered
 
@@ -173,15 +174,16 @@ class BottomLevels:
 
 def _build_trees(shapes_in: list, built: list) -> dict:
     """``shape_tree`` of each shape in ``built`` (indices into ``shapes_in``, (points,
-    triangles) pairs), by shape index, on the worker pool (``core.workers``; the builder's
-    level splits have their own), largest first. The split kernel is made and loaded
-    first, on the calling thread (``bvh.load_builder``). Each tree depends on its shape
-    alone, so the trees are the serial build's whatever the thread count."""
-    if min(len(built), worker_count()) <= 1:
+    triangles) pairs), by shape index, on a thread pool of one thread per core
+    (``core.thread_pool``), largest first. The split kernel is made and loaded first, on
+    the calling thread (``bvh.load_builder``). Each tree depends on its shape alone, so
+    the trees are the serial build's whatever the thread count."""
+    cores = os.cpu_count() or 1
+    if min(len(built), cores) <= 1:
         return {s: shape_tree(*shapes_in[s]) for s in built}
     load_builder("tri", leaf_size=SHAPE_LEAF, uniform_t=True)  # the same kernel as shape_tree's builds
     order = sorted(built, key=lambda s: -len(shapes_in[s][1]))  # the small ones fill in at the end
-    return dict(zip(order, worker_pool().map(lambda s: shape_tree(*shapes_in[s]), order)))
+    return dict(zip(order, thread_pool(cores).map(lambda s: shape_tree(*shapes_in[s]), order)))
 
 
 def leaf_order(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""A rendered film's planes copied into an Image's, in bands of rows on the tile pool.
+"""A rendered film's planes copied into an Image's, in bands of rows on the render's thread pool.
 
 The film is reused by the next render, so every plane is copied out (and the kernels'
 relative float32 times become absolute, quantised as the EXR stores them: channels.py).
@@ -11,7 +11,7 @@ import numpy as np
 
 from warp_st.output.channels import LOW_TIME_CHANNELS, join_time, split_time
 from warp_st.output.film import quantize_relative
-from warp_st.rendering.tile_pool import tile_pool
+from warp_st.core.thread_pool import thread_pool
 
 __all__ = ["copy_film"]
 
@@ -55,5 +55,5 @@ def copy_film(film, out: dict, height: int, width: int, *, origin: float, per_co
     if n == 1:
         band(bands[0])
     else:
-        list(tile_pool(n).map(band, bands))
+        list(thread_pool(n).map(band, bands))
     return lows

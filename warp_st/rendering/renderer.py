@@ -31,7 +31,7 @@ from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limit
 from warp_st.rendering.database_build import build_database
 from warp_st.rendering.film_planes import copy_film
 from warp_st.rendering.frame_inputs import camera_key
-from warp_st.rendering.tile_pool import tile_pool
+from warp_st.core.thread_pool import thread_pool
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.animation import animated_bodies, animation_cuts, piece_count
@@ -514,7 +514,7 @@ class Renderer:
             for tile in tiles:
                 launch(tile)
         else:
-            list(tile_pool(n_threads).map(launch, tiles))
+            list(thread_pool(n_threads).map(launch, tiles))
         kernel_seconds = time.perf_counter() - t_kernel
         if film.overflow.numpy()[0]:
             raise RuntimeError("BVH traversal stack overflow: the image would be wrong (please report)")
