@@ -126,3 +126,45 @@ def test_hits_do_not_depend_on_the_windows():
     keep &= np.abs(hit_t[:, None] - cuts[None, :]).min(axis=1) > 1e-3
     assert keep.mean() > 0.2
     assert np.array_equal(a_tri[keep], b_tri[keep]) and np.array_equal(a_s[keep], b_s[keep])
+
+
+def _class_scene():
+    """Motion classes of several bodies (spacetime/rigid.merge_plan): three bodies at 0.6c
+    coupled (two of them instances of one cube), two decoupled at 2c with a lifetime, two
+    at rest, and one body alone at 0.9c; each class's bodies consecutive, so the merged
+    shapes number their triangles as the extrusion does."""
+    from tracing_helpers import sphere_body
+
+    return scene_of(
+        cube_body("/A0", (0, 0, -4), 1.0, (0.6, 0, 0)),
+        cube_body("/A1", (0, 1.2, -4.5), 1.0, (0.6, 0, 0)),
+        sphere_body("/A2", (-1.5, 0, -5), 0.8, (0.6, 0, 0)),
+        cube_body("/B0", (2, 1, -6), 1.5, (-2.0, 0, 0.3), decoupled=True, lifetime=(-18.0, 1.0)),
+        sphere_body("/B1", (2, -1, -6), 0.6, (-2.0, 0, 0.3), decoupled=True, lifetime=(-18.0, 1.0)),
+        sphere_body("/C0", (-2, -1, -5), 0.7),
+        cube_body("/C1", (-2, 1.5, -5), 0.9),
+        cube_body("/D", (1, -2, -3), 0.8, (0, 0.9, 0), lifetime=(-15.0, -3.0)),
+    )
+
+
+@pytest.mark.parametrize("finite", [True, False])
+def test_merged_classes_hit_as_the_extrusion(finite):
+    """Bodies of one motion class merged into one shape (one bottom level, one set of
+    segments; instances copied in) give the float64 prism oracle's closest hits: the
+    same rays hit, the same triangles, s within COND_TOL."""
+    scene = _class_scene()
+    windows = _windows(scene)
+    rigid = RigidDatabase(scene, windows, origin=(-3, 0, 0, 0))
+    holder = rigid.shapes.body_holder
+    assert holder.tolist() == [0, 0, 0, 3, 3, 5, 5, 7], "the classes must be merged (the instances too)"
+    assert len(rigid.shapes.shape_rest) == 4
+    oracle = Database(scene, windows, precision="float64", primitive="prism", origin=(-3, 0, 0, 0))
+    origins, dirs = _random_rays(np.random.default_rng(33 + finite), 20000, oracle, finite)
+    o_idx, o_s, _ = oracle.cast(origins, dirs, finite=finite, brute=True)
+    r_tri, r_s, _ = rigid.cast(origins, dirs, finite=finite)
+    hit = o_idx >= 0
+    assert 0.1 < hit.mean() < 0.9
+    assert np.array_equal(r_tri >= 0, hit)
+    assert (r_tri[hit] == oracle.prim_tri[o_idx[hit]]).mean() > 0.999
+    err = _conditioned_error(oracle, o_idx[hit], r_s[hit], o_s[hit], dirs[hit], finite)
+    assert err.max() < COND_TOL, err.max()

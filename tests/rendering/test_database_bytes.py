@@ -18,6 +18,7 @@ import dataclasses
 import math
 
 import numpy as np
+import pytest
 
 from warp_st.core import tessellate
 from warp_st.core.scene import Body, CameraState, Light, Material, Surface
@@ -69,8 +70,9 @@ def _rendered_bytes(scene, shapes: int):
     return r, tables, total_bytes(tables) / r.database.shapes.triangle_count
 
 
-def test_static_rigid_database_stays_within_its_bytes_per_triangle():
-    """16 instances of a 6,240-triangle sphere (99,840 triangles). The layout's bytes
+def test_static_rigid_database_stays_within_its_bytes_per_triangle(monkeypatch):
+    """16 instances of a 6,240-triangle sphere (99,840 triangles), held shared (as a
+    merge class above ``FLATTEN_TRIANGLES`` keeps its instances). The layout's bytes
     per triangle: normal (3 x float32) 12, size (float32) 4, smooth, body and material
     (int32) 12, and the vertex normals (3 x float32 per vertex, 0.5 vertices per triangle
     of a closed sphere) 6: 34; the one shape's bottom level, shared by 16 bodies
@@ -83,8 +85,12 @@ def test_static_rigid_database_stays_within_its_bytes_per_triangle():
     8 bytes per triangle more (a float64 copy of the normals or sizes kept beside the
     float32 ones, or vertex indices per body) and for the leaf-order vertex copy back
     (36 bytes per shape triangle, 2.25 here)."""
+    from warp_st.spacetime import rigid
+
+    monkeypatch.setattr(rigid, "FLATTEN_TRIANGLES", 0)
     r, tables, per_triangle = _rendered_bytes(instanced_spheres(80), shapes=1)
     tris = r.database.shapes.triangle_count
+    assert not r.database.shapes.body_merged.any() and len(r.database.shapes.shape_rest) == 1
     assert per_triangle <= 38.0, [(t.name, t.dtype, round(t.nbytes / tris, 1)) for t in tables[:8]]
     # The count sees the bottom level and every upload: a buffer left out would make the
     # bound meaningless.
@@ -94,9 +100,11 @@ def test_static_rigid_database_stays_within_its_bytes_per_triangle():
     assert bottom >= (tris // 16) * 8  # at least the one shape's nodes (~19 bytes per triangle)
 
 
-def test_distinct_shapes_stay_within_64_bytes_per_triangle():
-    """16 spheres of 6,240 triangles, each of its own radius (16 shapes, no instancing:
-    99,840 triangles). Issue 17's bound, 64 bytes per triangle, is the layout's: the
+@pytest.mark.parametrize("merged", [True, False])
+def test_distinct_shapes_stay_within_64_bytes_per_triangle(merged, monkeypatch):
+    """16 spheres of 6,240 triangles, each of its own radius (no instancing: 99,840
+    triangles), merged into one shape (one motion class: spacetime/rigid.merge_plan) or
+    held as 16 shapes (merging off). Issue 17's bound, 64 bytes per triangle, is the layout's: the
     shading tables 34 (see above), the shape's vertex indices 12 and rest points 6 (which
     the shading and the traversal both read: one vertex store), and the wide nodes with
     their child boxes a byte per coordinate (accel/blas.py: 64 bytes a node, ~0.17 nodes
@@ -108,7 +116,12 @@ def test_distinct_shapes_stay_within_64_bytes_per_triangle():
         surf = b.surfaces[0]
         pts = (surf.points - b.origin) * (1.0 + 2.0 ** -10 * (i + 1)) + b.origin  # another radius: another shape
         bodies.append(dataclasses.replace(b, surfaces=(dataclasses.replace(surf, points=pts),)))
-    r, tables, per_triangle = _rendered_bytes(dataclasses.replace(scene, bodies=tuple(bodies)), shapes=16)
+    if not merged:
+        from warp_st.spacetime import rigid
+
+        monkeypatch.setattr(rigid, "merge_plan", lambda bodies, *a: np.arange(len(bodies), dtype=np.int32))
+    r, tables, per_triangle = _rendered_bytes(dataclasses.replace(scene, bodies=tuple(bodies)),
+                                              shapes=1 if merged else 16)
     tris = r.database.shapes.triangle_count
     assert per_triangle <= 64.0, [(t.name, t.dtype, round(t.nbytes / tris, 1)) for t in tables[:12]]
 

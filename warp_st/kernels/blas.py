@@ -3,10 +3,13 @@
 The tree is ``accel/blas.py``'s (every shape's nodes and triangles in shared arrays,
 ``Geometry.blas_*``). ``make_blas_query(Geometry)`` gives
 
-    blas_query(g, root, vert, tri0, p, d, t_max, any_hit) -> (hit, t, u, v, face)
+    blas_query(g, root, vert, tri0, p, d, t_max, any_hit, tri_base, skip_body, skip_t)
+        -> (hit, t, u, v, face)
 
 the closest (with ``any_hit``, any) crossing of the float32 ray p + t d, t in
-[0, t_max], with the triangles under wide node ``root``: t in units of d, (u, v) the
+[0, t_max], with the triangles under wide node ``root``, leaving out those of body
+``skip_body`` (>= 0; ``g.tri_body`` of the global triangle ``tri_base`` + face) nearer
+than ``skip_t`` (a merged shape holds several bodies): t in units of d, (u, v) the
 barycentric weights of the triangle's first and second vertices, ``face`` its index in
 its shape — what ``wp.mesh_query_ray`` returns for the same ray and triangles. A leaf's
 triangle slot i is row i of the shapes' own vertex indices (``g.shape_vidx``, in leaf
@@ -44,7 +47,8 @@ def make_blas_query(Geometry):
     INF = float("inf")
 
     @wp.func(inline=True)
-    def blas_query(g: Geometry, root: int, vert: int, tri0: int, p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int):
+    def blas_query(g: Geometry, root: int, vert: int, tri0: int, p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int,
+                   tri_base: int, skip_body: int, skip_t: wp.float32):
         # The shear of Woop's test, once per ray: z along the largest |d| (the first
         # of equals), x and y swapped when d_z < 0 to keep the winding.
         kz = int(0)
@@ -105,7 +109,8 @@ def make_blas_query(Geometry):
                         if (det > 0.0 and tt >= 0.0) or (det < 0.0 and tt <= 0.0):
                             rcp = 1.0 / det
                             t = tt * rcp
-                            if t < best and t >= 0.0:
+                            if t < best and t >= 0.0 and (skip_body < 0 or t >= skip_t
+                                                          or g.tri_body[tri_base + i - tri0] != skip_body):
                                 best = t
                                 best_u = eu * rcp
                                 best_v = ev * rcp

@@ -20,7 +20,9 @@ parameter. The segment admits s in [s_lo, s_hi]: (s_min, best) cut to its span
 runs over the part of that where r(s) is inside the body's rest box (see ``leaf``).
 Hits on body ``skip_body`` (or another piece of its animated object, ``body_object``)
 nearer than ``skip_dist`` are left out by starting that body's query at skip_dist instead: the same rule as the prism path, without a test per
-hit. A hit on the triangle a secondary ray leaves (``skip_tri``: a grazing ray can meet
+hit; in a merged class's shape (``body_merged``: the bodies of one motion class as one
+shape, spacetime/rigid.merge_plan) the bottom level leaves out skip_body's triangles
+nearer than skip_dist itself, and the class's other bodies are met as before. A hit on the triangle a secondary ray leaves (``skip_tri``: a grazing ray can meet
 its own facet again within rounding) is stepped over and the query repeated; for that
 body a shadow ray runs the closest-hit query (which sees triangles), every other body
 the any-hit one.
@@ -93,6 +95,10 @@ def make_trace_rigid(scalar, tets: bool = False):
         body_vert_base: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
         body_object: wp.array(dtype=wp.int32)  # the object of each body (an animated body's pieces share one)
+        # Merged classes (spacetime/rigid.merge_plan): the body holding each body's shape
+        # and segments, and 1 for the bodies of a class of several.
+        body_holder: wp.array(dtype=wp.int32)
+        body_merged: wp.array(dtype=wp.int32)
         # Bodies: bottom level (the root wide node of the body's shape in blas_*, -1:
         # none), first global triangle, velocity and rest_from_lab (A^-1) in float64.
         body_blas: wp.array(dtype=wp.int32)
@@ -181,14 +187,23 @@ def make_trace_rigid(scalar, tets: bool = False):
         return rest * w, rest * d
 
     @wp.func
-    def rest_range(lo: wp.vec3d, hi: wp.vec3d, p: wp.vec3d, d: wp.vec3d, s0: wp.float64, s1: wp.float64):
-        """[s0, s1] cut to where r(s) = p + s d lies in the box [lo, hi] (float64 slabs;
-        empty: s0 >= s1)."""
+    def reciprocal(d: wp.vec3d) -> wp.vec3d:
+        """1 / d per axis where d is not 0 (rest_range's slabs; 0 where it is)."""
+        inv = wp.vec3d()
         for k in range(3):
             if d[k] != wp.float64(0.0):
-                inv = wp.float64(1.0) / d[k]
-                a = (lo[k] - p[k]) * inv
-                b = (hi[k] - p[k]) * inv
+                inv[k] = wp.float64(1.0) / d[k]
+        return inv
+
+    @wp.func
+    def rest_range(lo: wp.vec3d, hi: wp.vec3d, p: wp.vec3d, d: wp.vec3d, inv: wp.vec3d, s0: wp.float64,
+                   s1: wp.float64):
+        """[s0, s1] cut to where r(s) = p + s d lies in the box [lo, hi] (float64 slabs,
+        ``inv`` = reciprocal(d); empty: s0 >= s1)."""
+        for k in range(3):
+            if d[k] != wp.float64(0.0):
+                a = (lo[k] - p[k]) * inv[k]
+                b = (hi[k] - p[k]) * inv[k]
                 s0 = wp.max(s0, wp.min(a, b))
                 s1 = wp.min(s1, wp.max(a, b))
             elif p[k] < lo[k] or p[k] > hi[k]:
@@ -257,10 +272,15 @@ def make_trace_rigid(scalar, tets: bool = False):
                     continue
             s_from = s_min
             own = int(0)  # a body of skip_body's object (an animated body's piece)
+            filtered = int(-1)  # skip_body, when its class's merged shape is queried
             if skip_body >= 0:
-                if g.body_object[body] == g.body_object[skip_body]:
+                if g.body_merged[body] != 0:
+                    if g.body_holder[skip_body] == body:
+                        own = 1
+                        filtered = skip_body
+                elif g.body_object[body] == g.body_object[skip_body]:
                     own = 1
-            if own != 0:
+            if own != 0 and filtered < 0:
                 s_from = fmax(s_from, skip_dist)
             s_lo = s_from
             s_hi = best
@@ -272,11 +292,12 @@ def make_trace_rigid(scalar, tets: bool = False):
             b_lo, b_hi = box_range(g.seg_lo[si], g.seg_hi[si], o, ray.inv, s_lo, s_hi)
             if s_lo < s_hi and b_lo <= b_hi:
                 p, d = body_ray(g, body, o, n, ray.fin)
-                e0, e1 = rest_range(g.body_rest_lo[body], g.body_rest_hi[body], p, d, wp.float64(s_from),
+                inv_d = reciprocal(d)
+                e0, e1 = rest_range(g.body_rest_lo[body], g.body_rest_hi[body], p, d, inv_d, wp.float64(s_from),
                                     wp.float64(s_hi))
                 if e0 < e1:  # the body's own box is met: start where its frame's is entered
-                    e0, _e = rest_range(g.body_start_lo[body], g.body_start_hi[body], p, d, wp.float64(s_from),
-                                        wp.float64(s_hi))
+                    e0, _e = rest_range(g.body_start_lo[body], g.body_start_hi[body], p, d, inv_d,
+                                        wp.float64(s_from), wp.float64(s_hi))
                 pm = p  # the ray as the bottom level sees it (the same s)
                 dm = d
                 if g.body_mapped[body] != 0:
@@ -308,7 +329,8 @@ def make_trace_rigid(scalar, tets: bool = False):
                     while attempt < 4 and e0 < e1:
                         attempt += 1
                         found, qt, qu, qv, face = blas_query(g, root, g.body_blas_vert[body], g.body_shape_tri[body],
-                                                             at(pm, dm, e0), direction, wp.float32(e1 - e0), shadow)
+                                                             at(pm, dm, e0), direction, wp.float32(e1 - e0), shadow,
+                                                             base, filtered, wp.float32(wp.float64(skip_dist) - e0))
                         if found == 0:
                             e1 = wp.float64(-1.0)
                         elif shadow != 0:

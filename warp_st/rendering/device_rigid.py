@@ -41,6 +41,8 @@ class RigidArrays(ShadingTables):
         self.body_shape_tri = wp.array(shapes.body_shape_tri, dtype=wp.int32, device=_DEVICE)
         self.body_vert_base = wp.array(shapes.body_vert_base.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.body_blas = wp.array(bottom.body_root, dtype=wp.int32, device=_DEVICE)
+        self.body_holder = wp.array(shapes.body_holder, dtype=wp.int32, device=_DEVICE)
+        self.body_merged = wp.array(shapes.body_merged, dtype=wp.int32, device=_DEVICE)
         # The bottom levels' own tables, over their memory.
         self.blas_q = shared(bottom.node_q, np.uint8, wp.types.vector(24, wp.uint8))
         self.blas_frame = shared(bottom.node_frame, np.float32, wp.types.vector(6, wp.float32))
@@ -79,7 +81,7 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     ns = static.np_scalar
     order = static.order
     for name in ("shape_vidx", "body_shape_tri", "body_vert_base", "tri_body", "body_object", "body_blas",
-                 "body_tri_base", "body_rest", "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi",
+                 "body_holder", "body_merged", "body_tri_base", "body_rest", "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi",
                  "seg_body", "body_quadric", "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map",
                  "body_map_shift", "blas_q", "blas_frame", "blas_link", "blas_points", "body_blas_vert"):
         setattr(g, name, getattr(static, name))

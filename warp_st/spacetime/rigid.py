@@ -29,9 +29,10 @@ from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Scene
 from warp_st.kernels.quadrics import QUADRIC_CAPSULE, QUADRIC_CONE, QUADRIC_CYLINDER, QUADRIC_SPHERE
 from warp_st.spacetime.extrude import TriangleTables, _body_size, body_triangles
-from warp_st.spacetime.visibility import intervals
+from warp_st.spacetime.visibility import intervals, union
 
-__all__ = ["RigidShapes", "rigid_shapes", "shading_tables", "renumbered", "triangle_order", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
+__all__ = ["RigidShapes", "rigid_shapes", "shading_tables", "renumbered", "triangle_order", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD",
+           "merge_plan", "FLATTEN_TRIANGLES"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,6 +77,10 @@ class RigidShapes(TriangleTables):
         rest shape (``Body.piece_linear``), and a ray r(s) in the piece's frame
         coordinates meets it as body_map (r(s) - body_map_shift), (B, 3, 3) and (B, 3)
         (identity and zeros where not mapped; see ``rigid_shapes``).
+    body_holder: the body whose shape and motion segments hold each body, (B,) int32:
+        itself, or (bodies merged into one shape: ``merge_plan``) the first body of its
+        merge class, which holds the whole class's triangles in one bottom level and
+        one set of segments; body_merged: 1 for every body of a merged class, (B,).
     reorder: None, or (after ``renumbered``: each shape's triangles in its bottom
         level's leaf order) the function that gave a shape's order, which a remake of
         the tables in another float type applies again (``shading_tables``).
@@ -103,6 +108,8 @@ class RigidShapes(TriangleTables):
     body_mapped: np.ndarray
     body_map: np.ndarray
     body_map_shift: np.ndarray
+    body_holder: np.ndarray
+    body_merged: np.ndarray
     reorder: object = None
 
     @property
@@ -169,7 +176,7 @@ def shading_tables(shapes: RigidShapes, dtype) -> RigidShapes:
     tables are never rounded to float32 and back)."""
     if shapes.tri_normal.dtype == np.dtype(dtype):
         return shapes
-    made = _rigid_shapes(shapes.bodies, False, dtype)
+    made = _rigid_shapes(shapes.bodies, False, dtype, plan=shapes.body_holder)
     if shapes.reorder is None:
         return made
     # The shapes renumbered are those a body traced as triangles uses (BottomLevels).
@@ -276,7 +283,67 @@ def _held_triangles(bodies: tuple, materials: list, mat_index: dict, dtype) -> l
     return found
 
 
-def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
+#: Instances are copied into their merge class's one shape while the class holds at most
+#: this many triangles (counting every copy); a larger class keeps them shared (one
+#: bottom level per shape: the memory and the build of one copy).
+FLATTEN_TRIANGLES = 1 << 18
+#: ... and only those within this many of their own sizes of their motion group's frame
+#: event: held there in float32, their points round by at most 2^-18 of their size (an
+#: instance held about its own pivot, 2^-24).
+FLATTEN_REACH = 64.0
+
+
+def _motion_group(body) -> tuple:
+    return tuple(np.asarray(body.velocity, np.float64).tolist()), bool(body.decoupled)
+
+
+def _frame_offset(body, frame_event) -> np.ndarray:
+    """The pivot of ``body`` relative to a frame event of its motion group, at the same
+    time: o - o_g - v (t_ref - t_g)."""
+    v = np.asarray(body.velocity, np.float64)
+    return np.asarray(body.origin, np.float64) - frame_event[1:] - v * (body.reference_time - frame_event[0])
+
+
+def merge_plan(bodies: tuple, found: list, keys: list, uses: dict, exact_quadrics: bool,
+               frame: np.ndarray) -> np.ndarray:
+    """Which bodies share one merged shape: (B,) int32, each body's holder (itself, or the
+    first body of its merge class).
+
+    A merge class is the bodies with the same velocity, coupling and lifetime (so the
+    same frame, ray map and s-interval: the segment's body enters the trace only through
+    these) that are traced as triangles and are objects of their own (not an animated
+    body's pieces, not exact quadrics). Their triangles, already held in the class's
+    motion-group frame, become one shape: one bottom level and one set of segments, as
+    one ``wp.Mesh`` holds them, instead of a top-level leaf, a float64 ray map and a
+    bottom-level query per body. Instances join while the class holds at most
+    ``FLATTEN_TRIANGLES`` triangles, those within ``FLATTEN_REACH`` of their sizes of
+    their group's frame event (``frame``: each body's, (B, 4))."""
+    holder = np.arange(len(bodies), dtype=np.int32)
+    paths: dict = {}
+    for b in bodies:
+        paths[b.prim_path] = paths.get(b.prim_path, 0) + 1
+    classes: dict = {}
+    for i, (b, bt) in enumerate(zip(bodies, found)):
+        if (bt is None or b.piece_linear is not None or paths[b.prim_path] > 1
+                or quadric_body(b, exact_quadrics)):
+            continue
+        classes.setdefault((*_motion_group(b), tuple(float(t) for t in b.lifetime)), []).append(i)
+    for members in classes.values():
+        flatten = sum(len(found[i].triangles) for i in members) <= FLATTEN_TRIANGLES
+
+        def near(i):
+            size = float(np.max(np.abs(found[i].rest))) or 1.0
+            return float(np.max(np.abs(_frame_offset(bodies[i], frame[i])))) <= FLATTEN_REACH * size
+
+        members = [i for i in members if uses[keys[i]] < 2 or (flatten and near(i))]
+        if len(members) > 1:
+            holder[members] = members[0]
+    return holder
+
+
+def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> RigidShapes:
+    """``rigid_shapes``; ``plan``: the ``merge_plan`` to follow (a remake of the tables in
+    another float type follows the first make's), else made here."""
     materials: list = []
     mat_index: dict = {}
     n_bodies = len(bodies)
@@ -287,6 +354,24 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
     for key in keys:
         if key is not None:
             uses[key] = uses.get(key, 0) + 1
+    frame = np.array([[b.reference_time, *b.origin] for b in bodies], dtype=np.float64).reshape(-1, 4)
+    # Bodies that are not shared instances are held in their motion group's frame: the
+    # first body of the group with triangles.
+    groups: dict = {}
+    group_frame = np.array([groups.setdefault(_motion_group(b), i) if bt is not None else i
+                            for i, (b, bt) in enumerate(zip(bodies, found))], dtype=np.int64).reshape(-1)
+    holder = (merge_plan(bodies, found, keys, uses, exact_quadrics, frame[group_frame]) if plan is None
+              else np.asarray(plan, np.int32))
+    frame_of = np.arange(n_bodies)  # the body whose frame a body's shape is held in
+    merged = np.zeros(n_bodies, np.int32)
+    merged[holder != np.arange(n_bodies)] = 1
+    merged[holder[merged == 1]] = 1
+    # Bodies in emission order: a merged class's members right after its holder, so their
+    # global triangles and vertices are one run, in the merged shape's order.
+    members_of: dict = {}
+    for i, h in enumerate(holder.tolist()):
+        members_of.setdefault(h, []).append(i)  # a holder is its class's first body
+    emitted = [i for h in sorted(members_of) for i in members_of[h]]
     shapes: dict = {}
     shape_rest, shape_tris = [], []
     body_shape = np.full(n_bodies, -1, np.int32)
@@ -294,9 +379,6 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
     vert_base = np.zeros(n_bodies, np.int64)
     box_lo, box_hi = np.zeros((n_bodies, 3)), np.zeros((n_bodies, 3))
     rest_lo, rest_hi = np.zeros((n_bodies, 3)), np.zeros((n_bodies, 3))
-    frame = np.array([[b.reference_time, *b.origin] for b in bodies], dtype=np.float64).reshape(-1, 4)
-    frame_of = np.arange(n_bodies)  # the body whose frame a body's shape is held in
-    groups: dict = {}
     rest_from_lab = np.tile(np.eye(3), (n_bodies, 1, 1))
     quadric = np.zeros(n_bodies, np.int32)
     quadric_inv = np.tile(np.eye(3), (n_bodies, 1, 1))
@@ -308,7 +390,8 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
     tables = {k: [] for k in ("normals", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material",
                               "tri_st")}
     n_tri = n_vert = 0
-    for i, (body, bt, key) in enumerate(zip(bodies, found, keys)):
+    for i in emitted:
+        body, bt, key = bodies[i], found[i], keys[i]
         found[i] = None  # each body's triangles freed once its rows are taken
         tri_base[i], vert_base[i] = n_tri, n_vert
         rest_from_lab[i] = np.linalg.inv(contraction_matrix(body.velocity, body.decoupled))
@@ -317,18 +400,25 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
         rest = bt.rest
         piece = (body.piece_linear is not None and uses[key] < 2  # a turned piece of an animated body
                  and abs(float(np.linalg.det(body.piece_linear))) > 1e-300)
-        if uses[key] < 2:  # not an instance: held in its motion group's frame
-            g = groups.setdefault((tuple(np.asarray(body.velocity, np.float64).tolist()), bool(body.decoupled)), i)
+        if uses[key] < 2 or merged[i]:  # not a shared instance: held in its motion group's frame
+            g = group_frame[i]
             frame_of[i] = g
-            offset = np.asarray(body.origin) - frame[g, 1:] - np.asarray(body.velocity) * (body.reference_time
-                                                                                         - frame[g, 0])
-            shift = rest_from_lab[i] @ offset
+            shift = rest_from_lab[i] @ _frame_offset(body, frame[g])
             rest = rest + shift
             key = ("piece", body.prim_path, key[1], len(rest)) if piece else (i,)
         if piece:
             unturn = np.linalg.inv(np.asarray(body.piece_linear, dtype=np.float64))
             mapped[i], body_map[i], map_shift[i] = 1, unturn.T, shift
-        if key not in shapes:
+        if merged[i]:  # the class's one shape: each member's points and triangles appended
+            key = ("merged", int(holder[i]))
+            if key not in shapes:
+                shapes[key] = len(shape_rest)
+                shape_rest.append([])
+                shape_tris.append([])
+            shape_tris[shapes[key]].append(bt.triangles.astype(np.int32) + (n_vert - vert_base[holder[i]]))
+            shape_rest[shapes[key]].append(rest.astype(np.float32))
+            tri_base[i], vert_base[i] = tri_base[holder[i]], vert_base[holder[i]]
+        elif key not in shapes:
             shapes[key] = len(shape_rest)
             shape_rest.append((bt.rest @ unturn if piece else rest).astype(np.float32))
             shape_tris.append(bt.triangles.astype(np.int32))
@@ -363,6 +453,16 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
         tables["tri_st"].append(np.zeros((len(bt.triangles), 3, 2), dtype) if bt.tri_st is None else bt.tri_st)
         n_tri += len(bt.triangles)
         n_vert += len(bt.local)
+    for h in np.flatnonzero(merged & (holder == np.arange(n_bodies))):
+        # A merged class: every member's rest box is the shape's, and the holder's lab box
+        # (at its reference time) holds every member's, each moved to that time.
+        members = np.flatnonzero(holder == h)
+        rest_lo[members], rest_hi[members] = rest_lo[members].min(axis=0), rest_hi[members].max(axis=0)
+        v = np.asarray(bodies[h].velocity, np.float64)
+        moved = np.array([v * (bodies[h].reference_time - bodies[m].reference_time) for m in members])
+        box_lo[h], box_hi[h] = (box_lo[members] + moved).min(axis=0), (box_hi[members] + moved).max(axis=0)
+    shape_rest = [np.concatenate(r) if isinstance(r, list) else r for r in shape_rest]
+    shape_tris = [np.concatenate(t) if isinstance(t, list) else t for t in shape_tris]
     # Each body's queries start where the ray enters the rest box of its whole frame.
     start_lo, start_hi = rest_lo.copy(), rest_hi.copy()
     for g in np.unique(frame_of[body_shape >= 0]):
@@ -387,7 +487,8 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype) -> RigidShapes:
         body_frame=frame[frame_of], body_rest_lo=rest_lo, body_rest_hi=rest_hi, body_start_lo=start_lo,
         body_start_hi=start_hi, rest_from_lab=rest_from_lab, body_quadric=quadric, quadric_inv=quadric_inv,
         quadric_centre=quadric_centre, quadric_param=quadric_param, body_mapped=mapped, body_map=body_map,
-        body_map_shift=map_shift, vertex_normals=cat("normals", (0, 3), dtype),
+        body_map_shift=map_shift, body_holder=holder, body_merged=merged,
+        vertex_normals=cat("normals", (0, 3), dtype),
         tri_normal=cat("tri_normal", (0, 3), dtype),
         tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), dtype),
         tri_body=cat("tri_body", (0,), np.int32), tri_material=cat("tri_material", (0,), np.int32),
@@ -427,13 +528,20 @@ class MotionSegments:
 
 def motion_segments(scene: Scene, shapes: RigidShapes, windows: list) -> MotionSegments:
     """Each body's visible ``windows`` (per body: None, an interval or a tuple of
-    intervals, already clipped to its lifetime) cut into motion segments."""
+    intervals, already clipped to its lifetime) cut into motion segments. A merged class
+    (``merge_plan``) gets its holder's segments over the union of its members' windows,
+    cut by the class's size."""
+    windows = list(windows)
+    holder = shapes.body_holder
+    for i in np.flatnonzero(holder != np.arange(len(holder))):
+        windows[holder[i]] = union(windows[holder[i]], windows[i])
     rows = []
     for i, (body, window) in enumerate(zip(scene.bodies, windows)):
-        if shapes.body_shape[i] < 0:
+        if shapes.body_shape[i] < 0 or holder[i] != i:
             continue
-        v = np.asarray(body.velocity, dtype=np.float64)
         size = _body_size(body)
+        if shapes.body_merged[i]:
+            size = max(float(np.max(shapes.body_box_hi[i] - shapes.body_box_lo[i])), size)
         for t0, t1 in intervals(window):
             k = int(min(max(np.ceil(body.speed * (t1 - t0) / (SEGMENT_SWEEP * size)), 1), MAX_SEGMENTS))
             cuts = np.linspace(t0, t1, k + 1)
