@@ -129,42 +129,63 @@ def test_hits_do_not_depend_on_the_windows():
 
 
 def _class_scene():
-    """Motion classes of several bodies (spacetime/rigid.merge_plan): three bodies at 0.6c
-    coupled (two of them instances of one cube), two decoupled at 2c with a lifetime, two
-    at rest, and one body alone at 0.9c; each class's bodies consecutive, so the merged
-    shapes number their triangles as the extrusion does."""
+    """Motion classes of several bodies (spacetime/rigid.merge_plan), each class's bodies
+    overlapping or touching (so merged: their box is no larger than theirs together)
+    but one: at 0.6c coupled, two instances of one cube (copied into one shape about the
+    first one's pivot) and two other bodies; two decoupled at 2c with a lifetime; two at
+    rest; two small cubes far apart at 0.5c (kept apart); one body alone at 0.9c. Each
+    class's bodies are consecutive, so the merged shapes number their triangles as the
+    extrusion does."""
     from tracing_helpers import sphere_body
 
     return scene_of(
         cube_body("/A0", (0, 0, -4), 1.0, (0.6, 0, 0)),
-        cube_body("/A1", (0, 1.2, -4.5), 1.0, (0.6, 0, 0)),
-        sphere_body("/A2", (-1.5, 0, -5), 0.8, (0.6, 0, 0)),
+        cube_body("/A1", (0.9, 0, -4), 1.0, (0.6, 0, 0)),
+        cube_body("/A2", (0, 1.2, -4.5), 1.1, (0.6, 0, 0)),
+        sphere_body("/A3", (0.5, 1.2, -4.5), 0.8, (0.6, 0, 0)),
         cube_body("/B0", (2, 1, -6), 1.5, (-2.0, 0, 0.3), decoupled=True, lifetime=(-18.0, 1.0)),
-        sphere_body("/B1", (2, -1, -6), 0.6, (-2.0, 0, 0.3), decoupled=True, lifetime=(-18.0, 1.0)),
+        sphere_body("/B1", (2, 0.2, -6), 0.6, (-2.0, 0, 0.3), decoupled=True, lifetime=(-18.0, 1.0)),
         sphere_body("/C0", (-2, -1, -5), 0.7),
-        cube_body("/C1", (-2, 1.5, -5), 0.9),
+        cube_body("/C1", (-2, -0.2, -5), 0.9),
+        cube_body("/E0", (-3, 2, -8), 0.5, (0, 0, 0.5)),
+        cube_body("/E1", (3, 2, -8), 0.6, (0, 0, 0.5)),
         cube_body("/D", (1, -2, -3), 0.8, (0, 0.9, 0), lifetime=(-15.0, -3.0)),
     )
 
 
 @pytest.mark.parametrize("finite", [True, False])
-def test_merged_classes_hit_as_the_extrusion(finite):
+def test_merged_classes_hit_as_separate_bodies_and_the_extrusion(finite, monkeypatch):
     """Bodies of one motion class merged into one shape (one bottom level, one set of
-    segments; instances copied in) give the float64 prism oracle's closest hits: the
-    same rays hit, the same triangles, s within COND_TOL."""
+    segments), instances of one shape copied into another, a spread class kept apart: the
+    same closest triangles as the same bodies traced one by one (merging off), ray for
+    ray, at the same s to float32 rounding; and the float64 prism oracle's hits, s within
+    COND_TOL. One ray in 20,000 here misses a sphere's silhouette in float32 on both
+    rigid layouts: the masks may differ there."""
+    from warp_st.spacetime import rigid as rigid_module
+
     scene = _class_scene()
     windows = _windows(scene)
-    rigid = RigidDatabase(scene, windows, origin=(-3, 0, 0, 0))
-    holder = rigid.shapes.body_holder
-    assert holder.tolist() == [0, 0, 0, 3, 3, 5, 5, 7], "the classes must be merged (the instances too)"
-    assert len(rigid.shapes.shape_rest) == 4
+    merged = RigidDatabase(scene, windows, origin=(-3, 0, 0, 0))
+    assert merged.shapes.body_holder.tolist() == [0, 0, 2, 2, 4, 4, 6, 6, 8, 9, 10], "merged classes"
+    assert len(merged.shapes.shape_rest) == 7
+    monkeypatch.setattr(rigid_module, "merge_plan", lambda bodies, *a: np.arange(len(bodies), dtype=np.int32))
+    separate = RigidDatabase(scene, windows, origin=(-3, 0, 0, 0))
+    assert len(separate.shapes.shape_rest) == 10  # the two instances share one
     oracle = Database(scene, windows, precision="float64", primitive="prism", origin=(-3, 0, 0, 0))
     origins, dirs = _random_rays(np.random.default_rng(33 + finite), 20000, oracle, finite)
     o_idx, o_s, _ = oracle.cast(origins, dirs, finite=finite, brute=True)
-    r_tri, r_s, _ = rigid.cast(origins, dirs, finite=finite)
+    r_tri, r_s, _ = merged.cast(origins, dirs, finite=finite)
+    e_tri, e_s, _ = separate.cast(origins, dirs, finite=finite)
+    assert np.array_equal(r_tri, e_tri)
     hit = o_idx >= 0
+    # A copy is held about another pivot than its own, and a query may restart from
+    # another point (past a member's hit before the span): float32 rounding, which a
+    # grazing ray stretches along itself (COND_TOL's conditioning).
+    both = hit & (r_tri >= 0)
+    err = _conditioned_error(oracle, o_idx[both], r_s[both], e_s[both], dirs[both], finite)
+    assert err.max() < COND_TOL and (r_s[~both] == e_s[~both]).all(), err.max()
     assert 0.1 < hit.mean() < 0.9
-    assert np.array_equal(r_tri >= 0, hit)
-    assert (r_tri[hit] == oracle.prim_tri[o_idx[hit]]).mean() > 0.999
-    err = _conditioned_error(oracle, o_idx[hit], r_s[hit], o_s[hit], dirs[hit], finite)
+    assert ((r_tri >= 0) == hit).mean() >= 1.0 - 1e-4
+    assert (r_tri[both] == oracle.prim_tri[o_idx[both]]).mean() > 0.999
+    err = _conditioned_error(oracle, o_idx[both], r_s[both], o_s[both], dirs[both], finite)
     assert err.max() < COND_TOL, err.max()

@@ -70,9 +70,8 @@ def _rendered_bytes(scene, shapes: int):
     return r, tables, total_bytes(tables) / r.database.shapes.triangle_count
 
 
-def test_static_rigid_database_stays_within_its_bytes_per_triangle(monkeypatch):
-    """16 instances of a 6,240-triangle sphere (99,840 triangles), held shared (as a
-    merge class above ``FLATTEN_TRIANGLES`` keeps its instances). The layout's bytes
+def test_static_rigid_database_stays_within_its_bytes_per_triangle():
+    """16 instances of a 6,240-triangle sphere (99,840 triangles). The layout's bytes
     per triangle: normal (3 x float32) 12, size (float32) 4, smooth, body and material
     (int32) 12, and the vertex normals (3 x float32 per vertex, 0.5 vertices per triangle
     of a closed sphere) 6: 34; the one shape's bottom level, shared by 16 bodies
@@ -85,9 +84,6 @@ def test_static_rigid_database_stays_within_its_bytes_per_triangle(monkeypatch):
     8 bytes per triangle more (a float64 copy of the normals or sizes kept beside the
     float32 ones, or vertex indices per body) and for the leaf-order vertex copy back
     (36 bytes per shape triangle, 2.25 here)."""
-    from warp_st.spacetime import rigid
-
-    monkeypatch.setattr(rigid, "FLATTEN_TRIANGLES", 0)
     r, tables, per_triangle = _rendered_bytes(instanced_spheres(80), shapes=1)
     tris = r.database.shapes.triangle_count
     assert not r.database.shapes.body_merged.any() and len(r.database.shapes.shape_rest) == 1

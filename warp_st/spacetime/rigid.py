@@ -32,7 +32,7 @@ from warp_st.spacetime.extrude import TriangleTables, _body_size, body_triangles
 from warp_st.spacetime.visibility import intervals, union
 
 __all__ = ["RigidShapes", "rigid_shapes", "shading_tables", "renumbered", "triangle_order", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD",
-           "merge_plan", "FLATTEN_TRIANGLES"]
+           "merge_plan", "MERGE_TRIANGLES", "COPY_REACH"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -283,62 +283,97 @@ def _held_triangles(bodies: tuple, materials: list, mat_index: dict, dtype) -> l
     return found
 
 
-#: Instances are copied into their merge class's one shape while the class holds at most
-#: this many triangles (counting every copy); a larger class keeps them shared (one
-#: bottom level per shape: the memory and the build of one copy).
-FLATTEN_TRIANGLES = 1 << 18
-#: ... and only those within this many of their own sizes of their motion group's frame
-#: event: held there in float32, their points round by at most 2^-18 of their size (an
-#: instance held about its own pivot, 2^-24).
-FLATTEN_REACH = 64.0
+#: Bodies of at most this many triangles join their merge class's one shape; a larger
+#: body keeps its own bottom level (its own query costs little beside its triangles', and
+#: one shape of many large bodies builds slowly: its SAH's upper levels are serial).
+#: Instances of a shared shape are copied into one only while all of their class's copies
+#: hold at most this many together (beyond, one small shared shape stays in the caches
+#: where a copy of each does not).
+MERGE_TRIANGLES = 1 << 14
+#: Copies of instances are held about the first one's pivot: only those within this many
+#: of their sizes of it, so their float32 points round by at most 2^-18 of their size
+#: (2^-24 about their own pivots).
+COPY_REACH = 64.0
 
 
 def _motion_group(body) -> tuple:
     return tuple(np.asarray(body.velocity, np.float64).tolist()), bool(body.decoupled)
 
 
-def _frame_offset(body, frame_event) -> np.ndarray:
-    """The pivot of ``body`` relative to a frame event of its motion group, at the same
-    time: o - o_g - v (t_ref - t_g)."""
-    v = np.asarray(body.velocity, np.float64)
-    return np.asarray(body.origin, np.float64) - frame_event[1:] - v * (body.reference_time - frame_event[0])
-
-
-def merge_plan(bodies: tuple, found: list, keys: list, uses: dict, exact_quadrics: bool,
-               frame: np.ndarray) -> np.ndarray:
+def merge_plan(bodies: tuple, found: list, keys: list, uses: dict, exact_quadrics: bool) -> np.ndarray:
     """Which bodies share one merged shape: (B,) int32, each body's holder (itself, or the
     first body of its merge class).
 
     A merge class is the bodies with the same velocity, coupling and lifetime (so the
     same frame, ray map and s-interval: the segment's body enters the trace only through
-    these) that are traced as triangles and are objects of their own (not an animated
+    these) that are traced as triangles, are not instances of a shared shape, hold at
+    most ``MERGE_TRIANGLES`` triangles and are objects of their own (not an animated
     body's pieces, not exact quadrics). Their triangles, already held in the class's
     motion-group frame, become one shape: one bottom level and one set of segments, as
     one ``wp.Mesh`` holds them, instead of a top-level leaf, a float64 ray map and a
-    bottom-level query per body. Instances join while the class holds at most
-    ``FLATTEN_TRIANGLES`` triangles, those within ``FLATTEN_REACH`` of their sizes of
-    their group's frame event (``frame``: each body's, (B, 4))."""
+    bottom-level query per body.
+
+    Instances of shared shapes form classes of their own: when all copies of a class
+    hold at most ``MERGE_TRIANGLES`` triangles, those within ``COPY_REACH`` of their
+    sizes of the first one are copied into one shape held in that one's frame (its
+    ``holder``), and so on for the rest. Larger ones stay shared: copied, 16 instanced
+    spheres of 16k triangles traced 15 % slower (a bottom level of all their triangles
+    does not stay in the caches as one small shape does: docs/design/two-level.md)."""
     holder = np.arange(len(bodies), dtype=np.int32)
     paths: dict = {}
     for b in bodies:
         paths[b.prim_path] = paths.get(b.prim_path, 0) + 1
     classes: dict = {}
     for i, (b, bt) in enumerate(zip(bodies, found)):
-        if (bt is None or b.piece_linear is not None or paths[b.prim_path] > 1
-                or quadric_body(b, exact_quadrics)):
+        if (bt is None or len(bt.triangles) > MERGE_TRIANGLES or b.piece_linear is not None
+                or paths[b.prim_path] > 1 or quadric_body(b, exact_quadrics)):
             continue
-        classes.setdefault((*_motion_group(b), tuple(float(t) for t in b.lifetime)), []).append(i)
-    for members in classes.values():
-        flatten = sum(len(found[i].triangles) for i in members) <= FLATTEN_TRIANGLES
-
-        def near(i):
-            size = float(np.max(np.abs(found[i].rest))) or 1.0
-            return float(np.max(np.abs(_frame_offset(bodies[i], frame[i])))) <= FLATTEN_REACH * size
-
-        members = [i for i in members if uses[keys[i]] < 2 or (flatten and near(i))]
-        if len(members) > 1:
-            holder[members] = members[0]
+        classes.setdefault((*_motion_group(b), tuple(float(t) for t in b.lifetime), uses[keys[i]] > 1), []).append(i)
+    for (*_, copies), members in classes.items():
+        if not copies:
+            clusters = [members]
+        elif sum(len(found[i].triangles) for i in members) > MERGE_TRIANGLES:
+            clusters = []
+        else:
+            clusters, left = [], members
+            while left:
+                head = bodies[left[0]]
+                near = [i for i in left if float(np.max(np.abs(_pivot_offset(bodies[i], head)))) <= COPY_REACH * max(
+                    float(np.max(np.abs(found[i].rest))), 1e-30)]
+                clusters.append(near)
+                taken = set(near)
+                left = [i for i in left if i not in taken]
+        for cluster in clusters:
+            if len(cluster) > 1 and _no_larger(cluster, bodies, found):
+                holder[cluster] = cluster[0]
     return holder
+
+
+def _no_larger(members: list, bodies: tuple, found: list) -> bool:
+    """True when the box of all ``members`` (lab boxes at the first one's reference time)
+    has no more surface area than their boxes together: a ray then enters the merged
+    shape's box no more often than it enters the members' boxes, each a bottom-level
+    query of its own (the SAH's measure; spread bodies keep their own boxes: four cubes
+    round a sphere, merged, cost every ray that hits the sphere one more query)."""
+    h = bodies[members[0]]
+    lo, hi = [], []
+    for i in members:
+        moved = np.asarray(h.velocity, np.float64) * (h.reference_time - bodies[i].reference_time)
+        lo.append(column_min(found[i].local) + moved)
+        hi.append(column_max(found[i].local) + moved)
+    lo, hi = np.array(lo), np.array(hi)
+
+    def area(e):
+        return 2.0 * (e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 2] * e[..., 0])
+
+    return float(area(hi.max(axis=0) - lo.min(axis=0))) <= float(area(hi - lo).sum())
+
+
+def _pivot_offset(body, other) -> np.ndarray:
+    """The pivot of ``body`` relative to ``other``'s reference event (same velocity): o -
+    o_other - v (t_ref - t_other), in the lab."""
+    return (np.asarray(body.origin, np.float64) - np.asarray(other.origin, np.float64)
+            - np.asarray(body.velocity, np.float64) * (body.reference_time - other.reference_time))
 
 
 def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> RigidShapes:
@@ -354,15 +389,7 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
     for key in keys:
         if key is not None:
             uses[key] = uses.get(key, 0) + 1
-    frame = np.array([[b.reference_time, *b.origin] for b in bodies], dtype=np.float64).reshape(-1, 4)
-    # Bodies that are not shared instances are held in their motion group's frame: the
-    # first body of the group with triangles.
-    groups: dict = {}
-    group_frame = np.array([groups.setdefault(_motion_group(b), i) if bt is not None else i
-                            for i, (b, bt) in enumerate(zip(bodies, found))], dtype=np.int64).reshape(-1)
-    holder = (merge_plan(bodies, found, keys, uses, exact_quadrics, frame[group_frame]) if plan is None
-              else np.asarray(plan, np.int32))
-    frame_of = np.arange(n_bodies)  # the body whose frame a body's shape is held in
+    holder = merge_plan(bodies, found, keys, uses, exact_quadrics) if plan is None else np.asarray(plan, np.int32)
     merged = np.zeros(n_bodies, np.int32)
     merged[holder != np.arange(n_bodies)] = 1
     merged[holder[merged == 1]] = 1
@@ -379,6 +406,9 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
     vert_base = np.zeros(n_bodies, np.int64)
     box_lo, box_hi = np.zeros((n_bodies, 3)), np.zeros((n_bodies, 3))
     rest_lo, rest_hi = np.zeros((n_bodies, 3)), np.zeros((n_bodies, 3))
+    frame = np.array([[b.reference_time, *b.origin] for b in bodies], dtype=np.float64).reshape(-1, 4)
+    frame_of = np.arange(n_bodies)  # the body whose frame a body's shape is held in
+    groups: dict = {}
     rest_from_lab = np.tile(np.eye(3), (n_bodies, 1, 1))
     quadric = np.zeros(n_bodies, np.int32)
     quadric_inv = np.tile(np.eye(3), (n_bodies, 1, 1))
@@ -400,10 +430,11 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
         rest = bt.rest
         piece = (body.piece_linear is not None and uses[key] < 2  # a turned piece of an animated body
                  and abs(float(np.linalg.det(body.piece_linear))) > 1e-300)
-        if uses[key] < 2 or merged[i]:  # not a shared instance: held in its motion group's frame
-            g = group_frame[i]
+        if uses[key] < 2 or merged[i]:
+            # Held in its motion group's frame; copies of instances in their holder's.
+            g = groups.setdefault(_motion_group(body), i) if uses[key] < 2 else holder[i]
             frame_of[i] = g
-            shift = rest_from_lab[i] @ _frame_offset(body, frame[g])
+            shift = rest_from_lab[i] @ _pivot_offset(body, bodies[g])
             rest = rest + shift
             key = ("piece", body.prim_path, key[1], len(rest)) if piece else (i,)
         if piece:
