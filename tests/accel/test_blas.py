@@ -50,7 +50,7 @@ _query = make_blas_query(Blas)
 def _blas_rays(g: Blas, root: int, p: wp.array(dtype=wp.vec3), d: wp.array(dtype=wp.vec3), t_max: float,
                any_hit: int, face: wp.array(dtype=wp.int32), t: wp.array(dtype=float), uv: wp.array(dtype=wp.vec2)):
     i = wp.tid()
-    hit, tt, u, v, f = _query(g, root, 0, 0, p[i], d[i], t_max, any_hit, 0, -1, 0.0)
+    hit, tt, u, v, f = _query(g, root, 0, 0, p[i], d[i], t_max, any_hit, 0, -1, 0.0, -1)
     face[i] = wp.where(hit != 0, f, -1)
     t[i] = tt
     uv[i] = wp.vec2(u, v)

@@ -48,7 +48,7 @@ def make_blas_query(Geometry):
 
     @wp.func(inline=True)
     def blas_query(g: Geometry, root: int, vert: int, tri0: int, p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int,
-                   tri_base: int, skip_body: int, skip_t: wp.float32):
+                   tri_base: int, skip_body: int, skip_t: wp.float32, skip_tri: int):
         # The shear of Woop's test, once per ray: z along the largest |d| (the first
         # of equals), x and y swapped when d_z < 0 to keep the winding.
         kz = int(0)
@@ -109,8 +109,12 @@ def make_blas_query(Geometry):
                         if (det > 0.0 and tt >= 0.0) or (det < 0.0 and tt <= 0.0):
                             rcp = 1.0 / det
                             t = tt * rcp
-                            if t < best and t >= 0.0 and (skip_body < 0 or t >= skip_t
-                                                          or g.tri_body[tri_base + i - tri0] != skip_body):
+                            keep = int(1)
+                            if skip_body >= 0:
+                                own = tri_base + i - tri0
+                                if own == skip_tri or (t < skip_t and g.tri_body[own] == skip_body):
+                                    keep = 0
+                            if t < best and t >= 0.0 and keep != 0:
                                 best = t
                                 best_u = eu * rcp
                                 best_v = ev * rcp

@@ -321,7 +321,7 @@ def make_trace_rigid(scalar, tets: bool = False):
                     # query repeated from past it: from the lifetime's end when the hit
                     # lies beyond it, else from the span. (One call site: it is inlined.)
                     shadow = int(0)
-                    if any_hit != 0 and own == 0:
+                    if any_hit != 0 and (own == 0 or filtered >= 0):
                         shadow = 1
                         e0 = wp.max(e0, wp.float64(s_lo))
                     s_life = wp.float64(o[0]) - g.body_end[body]
@@ -330,7 +330,8 @@ def make_trace_rigid(scalar, tets: bool = False):
                         attempt += 1
                         found, qt, qu, qv, face = blas_query(g, root, g.body_blas_vert[body], g.body_shape_tri[body],
                                                              at(pm, dm, e0), direction, wp.float32(e1 - e0), shadow,
-                                                             base, filtered, wp.float32(wp.float64(skip_dist) - e0))
+                                                             base, filtered, wp.float32(wp.float64(skip_dist) - e0),
+                                                             skip_tri)
                         if found == 0:
                             e1 = wp.float64(-1.0)
                         elif shadow != 0:
