@@ -3,13 +3,14 @@
 The tree is ``accel/blas.py``'s (every shape's nodes and triangles in shared arrays,
 ``Geometry.blas_*``). ``make_blas_query(Geometry)`` gives
 
-    blas_query(g, root, vert, tri0, p, d, t_max, any_hit, tri_base, skip_body, skip_t)
+    blas_query(g, root, vert, tri0, p, d, t_max, any_hit, tri_base, skip_body, skip_t, skip_tri)
         -> (hit, t, u, v, face)
 
 the closest (with ``any_hit``, any) crossing of the float32 ray p + t d, t in
-[0, t_max], with the triangles under wide node ``root``, leaving out those of body
-``skip_body`` (>= 0; ``g.tri_body`` of the global triangle ``tri_base`` + face) nearer
-than ``skip_t`` (a merged shape holds several bodies): t in units of d, (u, v) the
+[0, t_max], with the triangles under wide node ``root``; with ``skip_body`` >= 0 (a
+merged shape holds several bodies) leaving out the global triangle ``skip_tri`` and
+those of that body (``g.tri_body`` of the global triangle ``tri_base`` + face) nearer
+than ``skip_t``: t in units of d, (u, v) the
 barycentric weights of the triangle's first and second vertices, ``face`` its index in
 its shape — what ``wp.mesh_query_ray`` returns for the same ray and triangles. A leaf's
 triangle slot i is row i of the shapes' own vertex indices (``g.shape_vidx``, in leaf

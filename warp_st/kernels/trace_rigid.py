@@ -19,13 +19,15 @@ parameter. The segment admits s in [s_lo, s_hi]: (s_min, best) cut to its span
 (t = o_t - s in [t_lo, t_hi]; with infinite c, o_t itself must lie in it). The query
 runs over the part of that where r(s) is inside the body's rest box (see ``leaf``).
 Hits on body ``skip_body`` (or another piece of its animated object, ``body_object``)
-nearer than ``skip_dist`` are left out by starting that body's query at skip_dist instead: the same rule as the prism path, without a test per
-hit; in a merged class's shape (``body_merged``: the bodies of one motion class as one
-shape, spacetime/rigid.merge_plan) the bottom level leaves out skip_body's triangles
-nearer than skip_dist itself, and the class's other bodies are met as before. A hit on the triangle a secondary ray leaves (``skip_tri``: a grazing ray can meet
-its own facet again within rounding) is stepped over and the query repeated; for that
-body a shadow ray runs the closest-hit query (which sees triangles), every other body
-the any-hit one.
+nearer than ``skip_dist`` are left out by starting that body's query at skip_dist
+instead: the same rule as the prism path, without a test per hit. A hit on the triangle
+a secondary ray leaves (``skip_tri``: a grazing ray can meet its own facet again within
+rounding) is stepped over and the query repeated; for that body a shadow ray runs the
+closest-hit query (which sees triangles), every other body the any-hit one. In a merged
+class's shape (``body_merged``: several bodies of one motion as one shape,
+spacetime/rigid.merge_plan) the bottom level itself leaves out skip_tri and skip_body's
+triangles nearer than skip_dist, so the class's other bodies are met from the ray's
+start and a shadow ray runs the any-hit query.
 
 The hit's barycentrics (u, v, 1 - u - v) weigh the triangle's vertices in the mesh's
 index order; the primitive index returned is the global triangle (its own triangle:

@@ -81,8 +81,8 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     ns = static.np_scalar
     order = static.order
     for name in ("shape_vidx", "body_shape_tri", "body_vert_base", "tri_body", "body_object", "body_blas",
-                 "body_holder", "body_merged", "body_tri_base", "body_rest", "body_rest_lo", "body_rest_hi", "body_start_lo", "body_start_hi",
-                 "seg_body", "body_quadric", "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map",
+                 "body_holder", "body_merged", "body_tri_base", "body_rest", "body_rest_lo", "body_rest_hi",
+                 "body_start_lo", "body_start_hi", "seg_body", "body_quadric", "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map",
                  "body_map_shift", "blas_q", "blas_frame", "blas_link", "blas_points", "body_blas_vert"):
         setattr(g, name, getattr(static, name))
     g.body_velocity = static.body_velocity64

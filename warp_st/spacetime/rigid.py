@@ -247,6 +247,11 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False, dtype=np.float32) -
     shape, r_0 (the first piece's r_f - c, taken back by L^-1), so a rotating body's
     thousands of pieces cost one bottom level: a ray meets it as L^-T (r_f(s) - c)
     (``body_map``), the same lookback s.
+
+    Merge classes (``merge_plan``: bodies of one motion whose boxes overlap or touch,
+    and copies of small instanced shapes) are one shape each: the members' points and
+    triangles one after another (their global triangles and vertices one run, so the
+    members are emitted right after their holder), every member's rest box the shape's.
     """
     return _rigid_shapes(tuple(scene.bodies), exact_quadrics, dtype)
 
