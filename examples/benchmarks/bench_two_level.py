@@ -34,6 +34,7 @@ drift between repetitions cancels; the CPU model heads the table.
     python3 examples/benchmarks/bench_two_level.py               # 512 x 512, 5 runs
     python3 examples/benchmarks/bench_two_level.py --runs 7 --tables static,motion
     python3 examples/benchmarks/bench_two_level.py --tables trace --clock cpu   # a shared machine
+    python3 examples/benchmarks/bench_two_level.py --tables shipped --stages all  # every shipped stage
 """
 from __future__ import annotations
 
@@ -289,11 +290,13 @@ def moving_against_resting(label, rest, moving, args, log):
     return rows
 
 
-def closest_hits(r, geo, mesh, origin_event, label, args, log):
+def closest_hits(r, geo, mesh, origin_event, label, args, log, finite=1):
     """Rows timing closest hits of ``mesh``'s rays through renderer ``r``'s two levels
     (``cast_rays`` on the frame's geometry ``geo``, rays from ``origin_event`` relative to
-    its origin) against ``mesh`` (wp.Mesh) and Embree over the same rays, 1 and 2 threads,
-    both sides back to back in each run; a row notes where the hit masks differ."""
+    its origin, ``finite`` 0 for a stage of infinite light speed: its database holds the
+    camera's instant only) against ``mesh`` (wp.Mesh) and Embree over the same rays, 1
+    and 2 threads, both sides back to back in each run; a row notes where the hit masks
+    differ."""
     import warp as wp
 
     n = len(mesh.face)
@@ -304,7 +307,7 @@ def closest_hits(r, geo, mesh, origin_event, label, args, log):
     def ours(threads):
         def launch(tile):
             a, b = tile
-            wp.launch(r.kernels.cast_rays, dim=b - a, inputs=[geo, outs[0][a:b], mesh.dirs[a:b], 1, outs[1][a:b],
+            wp.launch(r.kernels.cast_rays, dim=b - a, inputs=[geo, outs[0][a:b], mesh.dirs[a:b], finite, outs[1][a:b],
                                                               outs[2][a:b], outs[3][a:b]], device="cpu")
 
         return mesh.run(launch, threads)
@@ -379,17 +382,27 @@ SHIPPED = (("relativistic_parade.usda", 0.0), ("mirrors/flanges_coupled.usda", 0
            ("thesis/sphere_and_cubes.usda", 0.0))
 
 
+def shipped_stages(which: str):
+    """The shipped table's (stage, frame) pairs: ``SHIPPED``, or with ``all`` every stage
+    under usd_scenes/ at frame 0."""
+    if which == "all":
+        return tuple((str(p.relative_to(ROOT / "usd_scenes")), 0.0) for p in sorted((ROOT / "usd_scenes").rglob("*.usda")))
+    return SHIPPED
+
+
 def table_shipped(args, log):
     """Closest hits on static copies of shipped stages (every body at rest, spheres as
     their triangles): our two levels against wp.Mesh and Embree over the same triangles
-    and primary rays from the camera (``cast_rays``, no shading)."""
+    and primary rays from the camera (``cast_rays``, no shading); ``--stages all``: every
+    shipped stage."""
     import warp_st
     from benchlib.scenes import fixed_tessellation, static_version
+    from warp_st.core.conventions import LightSpeed
     from warp_st.rendering.anchor import anchor_step, geometry_anchor
     from warp_st.rendering.renderer import Renderer
 
     rows = []
-    for stage, frame in SHIPPED:
+    for stage, frame in shipped_stages(args.stages):
         scene = fixed_tessellation(static_version(warp_st.load(str(ROOT / "usd_scenes" / stage))))
         r = Renderer(scene, frames=[frame], width=args.width, height=args.height, quadrics="tessellated")
         r.render(frame)
@@ -399,8 +412,9 @@ def table_shipped(args, log):
         geo = r.database.geometry_for("float32", tuple(origin.tolist()), None)  # the frame's, cached
         dirs = pixel_directions(scene, args.width, args.height, frame)
         mesh = MeshQueries(scene, dirs, cam.position)
+        finite = int(r._frame_light_speed(cam) != LightSpeed.INFINITE)
         rows += closest_hits(r, geo, mesh, event - origin,
-                             f"{Path(stage).stem} static copy ({len(mesh.indices) // 3:,} triangles)", args, log)
+                             f"{Path(stage).stem} static copy ({len(mesh.indices) // 3:,} triangles)", args, log, finite)
     return rows
 
 
@@ -510,6 +524,9 @@ def main(argv=None) -> int:
     p.add_argument("--width", type=int, default=512)
     p.add_argument("--height", type=int, default=512)
     p.add_argument("--tables", default=",".join(TABLES), help=f"comma-separated subset of {','.join(TABLES)}")
+    p.add_argument("--stages", choices=("four", "all"), default="four",
+                   help="the shipped table's stages: parade, flanges_coupled, aberration, sphere_and_cubes "
+                        "(default) or every stage under usd_scenes/")
     p.add_argument("--clock", choices=("wall", "cpu"), default="wall",
                    help="time the ray queries (trace table) by wall or process CPU time (default wall)")
     args = p.parse_args(argv)
