@@ -129,7 +129,7 @@ def test_hits_do_not_depend_on_the_windows():
 
 
 def _class_scene():
-    """Motion classes of several bodies (spacetime/rigid.merge_plan), each class's bodies
+    """Motion classes of several bodies (spacetime/merge_classes.merge_plan), each class's bodies
     overlapping or touching (so merged: their box is no larger than theirs together)
     but one: at 0.6c coupled, two instances of one cube (copied into one shape about the
     first one's pivot) and two other bodies; two decoupled at 2c with a lifetime; two at

@@ -99,12 +99,12 @@ def test_static_rigid_database_stays_within_its_bytes_per_triangle():
 @pytest.mark.parametrize("merged", [True, False])
 def test_distinct_shapes_stay_within_64_bytes_per_triangle(merged, monkeypatch):
     """16 spheres of 6,240 triangles, each of its own radius (no instancing: 99,840
-    triangles), merged into one shape (one motion class: spacetime/rigid.merge_plan) or
+    triangles), merged into one shape (one motion class: spacetime/merge_classes.merge_plan) or
     held as 16 shapes (merging off). Issue 17's bound, 64 bytes per triangle, is the layout's: the
     shading tables 34 (see above), the shape's vertex indices 12 and rest points 6 (which
     the shading and the traversal both read: one vertex store), and the wide nodes with
     their child boxes a byte per coordinate (accel/blas.py: 64 bytes a node, ~0.17 nodes
-    per triangle of these shapes, 11.1). Measured 63.4; with the boxes as float32 (112
+    per triangle of these shapes, 11.1). Measured 63.4 (63.3 merged); with the boxes as float32 (112
     bytes a node, 0.7.0) 71.7, with a leaf-order copy of the vertices as well 107.7."""
     scene = instanced_spheres(80)
     bodies = []

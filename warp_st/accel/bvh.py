@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from warp_st.core.thread_pool import thread_pool
 from warp_st.kernels.layout import MAX_DEPTH, SAH_FREE_DEPTH
 
 __all__ = ["FlatBVH", "build_bvh", "load_builder", "LEAF_SIZE", "MAX_DEPTH"]
@@ -139,20 +140,6 @@ def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, unifo
 _SAH_KERNELS: dict = {}
 
 
-_POOL: list = []
-
-
-def _pool():
-    """The builder's two worker threads, started once per process (a pool started per
-    tree level cost ~0.7 ms a level: a 16k-triangle shape built in 92 against 79 ms,
-    interleaved runs, docs/design/two-level.md)."""
-    if not _POOL:
-        from concurrent.futures import ThreadPoolExecutor
-
-        _POOL.append(ThreadPoolExecutor(max_workers=2, thread_name_prefix="warp_st-bvh"))
-    return _POOL[0]
-
-
 def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, force_median):
     """Split one level's nodes; wide levels in two halves on two threads (disjoint ranges)."""
     m = len(seg_start)
@@ -172,7 +159,8 @@ def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, for
         # Balance by primitive count, not node count.
         work = np.cumsum(seg_end - seg_start)
         half = int(np.searchsorted(work, work[-1] / 2))
-        list(_pool().map(lambda r: run(*r), [(0, half), (half, m)]))
+        # Its own pool: these run inside the bottom levels' shape tasks (accel/blas.py).
+        list(thread_pool(2, "warp-st-bvh").map(lambda r: run(*r), [(0, half), (half, m)]))
     return mids.numpy().astype(np.int64)
 
 

@@ -25,7 +25,7 @@ a secondary ray leaves (``skip_tri``: a grazing ray can meet its own facet again
 rounding) is stepped over and the query repeated; for that body a shadow ray runs the
 closest-hit query (which sees triangles), every other body the any-hit one. In a merged
 class's shape (``body_merged``: several bodies of one motion as one shape,
-spacetime/rigid.merge_plan) the bottom level itself leaves out skip_tri and skip_body's
+spacetime/merge_classes.merge_plan) the bottom level itself leaves out skip_tri and skip_body's
 triangles nearer than skip_dist, so the class's other bodies are met from the ray's
 start and a shadow ray runs the any-hit query.
 
@@ -97,7 +97,7 @@ def make_trace_rigid(scalar, tets: bool = False):
         body_vert_base: wp.array(dtype=wp.int32)
         tri_body: wp.array(dtype=wp.int32)
         body_object: wp.array(dtype=wp.int32)  # the object of each body (an animated body's pieces share one)
-        # Merged classes (spacetime/rigid.merge_plan): the body holding each body's shape
+        # Merged classes (spacetime/merge_classes.merge_plan): the body holding each body's shape
         # and segments, and 1 for the bodies of a class of several.
         body_holder: wp.array(dtype=wp.int32)
         body_merged: wp.array(dtype=wp.int32)

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from warp_st.core.thread_pool import thread_pool
 from warp_st.output.channels import LOW_TIME_CHANNELS, join_time, split_time
 from warp_st.output.film import quantize_relative
-from warp_st.core.thread_pool import thread_pool
 
 __all__ = ["copy_film"]
 

@@ -22,6 +22,7 @@ import numpy as np
 from warp_st.core.conventions import DEFAULT_RESOLUTION, LightSpeed, Precision
 from warp_st.core.limits import resolve_max_memory
 from warp_st.core.scene import CameraState, Scene, SceneError
+from warp_st.core.thread_pool import thread_pool
 from warp_st.kernels.layout import PRIMITIVES
 from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
 from warp_st.output.cryptomatte import image_layers, resolve_layers
@@ -31,7 +32,6 @@ from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limit
 from warp_st.rendering.database_build import build_database
 from warp_st.rendering.film_planes import copy_film
 from warp_st.rendering.frame_inputs import camera_key
-from warp_st.core.thread_pool import thread_pool
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.animation import animated_bodies, animation_cuts, piece_count

@@ -29,10 +29,10 @@ from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Scene
 from warp_st.kernels.quadrics import QUADRIC_CAPSULE, QUADRIC_CONE, QUADRIC_CYLINDER, QUADRIC_SPHERE
 from warp_st.spacetime.extrude import TriangleTables, _body_size, body_triangles
+from warp_st.spacetime.merge_classes import merge_plan, merged_bodies, motion_group, pivot_offset
 from warp_st.spacetime.visibility import intervals, union
 
-__all__ = ["RigidShapes", "rigid_shapes", "shading_tables", "renumbered", "triangle_order", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD",
-           "merge_plan", "MERGE_TRIANGLES", "COPY_REACH"]
+__all__ = ["RigidShapes", "rigid_shapes", "shading_tables", "renumbered", "triangle_order", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,7 +54,8 @@ class RigidShapes(TriangleTables):
         bottom level; see ``rigid_shapes`` for the frames).
     body_shape: shape index of each body, (B,), -1 for a body without triangles.
     body_tri_base, body_vert_base: the body's first global triangle / vertex, (B,).
-    body_box_lo, body_box_hi: box of the contracted body at its reference time, (B, 3).
+    body_box_lo, body_box_hi: box of the contracted body at its reference time, (B, 3) (a
+        merged class's holder: of every member, moved to its reference time).
     body_frame: the event (t, x) about which each body's shape is held, (B, 4): its own
         reference event, or its motion group's.
     body_rest_lo, body_rest_hi: box of the body's shape at rest in its frame's
@@ -80,7 +81,7 @@ class RigidShapes(TriangleTables):
     body_holder: the body whose shape and motion segments hold each body, (B,) int32:
         itself, or (bodies merged into one shape: ``merge_plan``) the first body of its
         merge class, which holds the whole class's triangles in one bottom level and
-        one set of segments; body_merged: 1 for every body of a merged class, (B,).
+        one set of segments (``body_merged``: 1 for every body of a merged class).
     reorder: None, or (after ``renumbered``: each shape's triangles in its bottom
         level's leaf order) the function that gave a shape's order, which a remake of
         the tables in another float type applies again (``shading_tables``).
@@ -109,12 +110,15 @@ class RigidShapes(TriangleTables):
     body_map: np.ndarray
     body_map_shift: np.ndarray
     body_holder: np.ndarray
-    body_merged: np.ndarray
     reorder: object = None
 
     @property
     def triangle_count(self) -> int:
         return int(len(self.tri_body))
+
+    @property
+    def body_merged(self) -> np.ndarray:
+        return merged_bodies(self.body_holder)
 
 
 #: Rest boxes are padded by this fraction of the shape's extent from its pivot (plus
@@ -288,99 +292,6 @@ def _held_triangles(bodies: tuple, materials: list, mat_index: dict, dtype) -> l
     return found
 
 
-#: Bodies of at most this many triangles join their merge class's one shape; a larger
-#: body keeps its own bottom level (its own query costs little beside its triangles', and
-#: one shape of many large bodies builds slowly: its SAH's upper levels are serial).
-#: Instances of a shared shape are copied into one only while all of their class's copies
-#: hold at most this many together (beyond, one small shared shape stays in the caches
-#: where a copy of each does not).
-MERGE_TRIANGLES = 1 << 14
-#: Copies of instances are held about the first one's pivot: only those within this many
-#: of their sizes of it, so their float32 points round by at most 2^-18 of their size
-#: (2^-24 about their own pivots).
-COPY_REACH = 64.0
-
-
-def _motion_group(body) -> tuple:
-    return tuple(np.asarray(body.velocity, np.float64).tolist()), bool(body.decoupled)
-
-
-def merge_plan(bodies: tuple, found: list, keys: list, uses: dict, exact_quadrics: bool) -> np.ndarray:
-    """Which bodies share one merged shape: (B,) int32, each body's holder (itself, or the
-    first body of its merge class).
-
-    A merge class is the bodies with the same velocity, coupling and lifetime (so the
-    same frame, ray map and s-interval: the segment's body enters the trace only through
-    these) that are traced as triangles, are not instances of a shared shape, hold at
-    most ``MERGE_TRIANGLES`` triangles and are objects of their own (not an animated
-    body's pieces, not exact quadrics). Their triangles, already held in the class's
-    motion-group frame, become one shape: one bottom level and one set of segments, as
-    one ``wp.Mesh`` holds them, instead of a top-level leaf, a float64 ray map and a
-    bottom-level query per body.
-
-    Instances of shared shapes form classes of their own: when all copies of a class
-    hold at most ``MERGE_TRIANGLES`` triangles, those within ``COPY_REACH`` of their
-    sizes of the first one are copied into one shape held in that one's frame (its
-    ``holder``), and so on for the rest. Larger ones stay shared: copied, 16 instanced
-    spheres of 16k triangles traced 15 % slower (a bottom level of all their triangles
-    does not stay in the caches as one small shape does: docs/design/two-level.md)."""
-    holder = np.arange(len(bodies), dtype=np.int32)
-    paths: dict = {}
-    for b in bodies:
-        paths[b.prim_path] = paths.get(b.prim_path, 0) + 1
-    classes: dict = {}
-    for i, (b, bt) in enumerate(zip(bodies, found)):
-        if (bt is None or len(bt.triangles) > MERGE_TRIANGLES or b.piece_linear is not None
-                or paths[b.prim_path] > 1 or quadric_body(b, exact_quadrics)):
-            continue
-        classes.setdefault((*_motion_group(b), tuple(float(t) for t in b.lifetime), uses[keys[i]] > 1), []).append(i)
-    for (*_, copies), members in classes.items():
-        if not copies:
-            clusters = [members]
-        elif sum(len(found[i].triangles) for i in members) > MERGE_TRIANGLES:
-            clusters = []
-        else:
-            clusters, left = [], members
-            while left:
-                head = bodies[left[0]]
-                near = [i for i in left if float(np.max(np.abs(_pivot_offset(bodies[i], head)))) <= COPY_REACH * max(
-                    float(np.max(np.abs(found[i].rest))), 1e-30)]
-                clusters.append(near)
-                taken = set(near)
-                left = [i for i in left if i not in taken]
-        for cluster in clusters:
-            if len(cluster) > 1 and _no_larger(cluster, bodies, found):
-                holder[cluster] = cluster[0]
-    return holder
-
-
-def _no_larger(members: list, bodies: tuple, found: list) -> bool:
-    """True when the box of all ``members`` (lab boxes at the first one's reference time)
-    has no more surface area than their boxes together: a ray then enters the merged
-    shape's box no more often than it enters the members' boxes, each a bottom-level
-    query of its own (the SAH's measure; spread bodies keep their own boxes: four cubes
-    round a sphere, merged, cost every ray that hits the sphere one more query)."""
-    h = bodies[members[0]]
-    lo, hi = [], []
-    for i in members:
-        moved = np.asarray(h.velocity, np.float64) * (h.reference_time - bodies[i].reference_time)
-        lo.append(column_min(found[i].local) + moved)
-        hi.append(column_max(found[i].local) + moved)
-    lo, hi = np.array(lo), np.array(hi)
-
-    def area(e):
-        return 2.0 * (e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 2] * e[..., 0])
-
-    return float(area(hi.max(axis=0) - lo.min(axis=0))) <= float(area(hi - lo).sum())
-
-
-def _pivot_offset(body, other) -> np.ndarray:
-    """The pivot of ``body`` relative to ``other``'s reference event (same velocity): o -
-    o_other - v (t_ref - t_other), in the lab."""
-    return (np.asarray(body.origin, np.float64) - np.asarray(other.origin, np.float64)
-            - np.asarray(body.velocity, np.float64) * (body.reference_time - other.reference_time))
-
-
 def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> RigidShapes:
     """``rigid_shapes``; ``plan``: the ``merge_plan`` to follow (a remake of the tables in
     another float type follows the first make's), else made here."""
@@ -394,10 +305,9 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
     for key in keys:
         if key is not None:
             uses[key] = uses.get(key, 0) + 1
-    holder = merge_plan(bodies, found, keys, uses, exact_quadrics) if plan is None else np.asarray(plan, np.int32)
-    merged = np.zeros(n_bodies, np.int32)
-    merged[holder != np.arange(n_bodies)] = 1
-    merged[holder[merged == 1]] = 1
+    exact = [quadric_body(b, exact_quadrics) for b in bodies]
+    holder = merge_plan(bodies, found, keys, uses, exact) if plan is None else np.asarray(plan, np.int32)
+    merged = merged_bodies(holder)
     # Bodies in emission order: a merged class's members right after its holder, so their
     # global triangles and vertices are one run, in the merged shape's order.
     members_of: dict = {}
@@ -437,9 +347,9 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
                  and abs(float(np.linalg.det(body.piece_linear))) > 1e-300)
         if uses[key] < 2 or merged[i]:
             # Held in its motion group's frame; copies of instances in their holder's.
-            g = groups.setdefault(_motion_group(body), i) if uses[key] < 2 else holder[i]
+            g = groups.setdefault(motion_group(body), i) if uses[key] < 2 else holder[i]
             frame_of[i] = g
-            shift = rest_from_lab[i] @ _pivot_offset(body, bodies[g])
+            shift = rest_from_lab[i] @ pivot_offset(body, bodies[g])
             rest = rest + shift
             key = ("piece", body.prim_path, key[1], len(rest)) if piece else (i,)
         if piece:
@@ -462,7 +372,7 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
         box_lo[i], box_hi[i] = column_min(bt.local), column_max(bt.local)
         pad = REST_BOX_PAD * (1.0 + float(np.abs(rest).max()))
         rest_lo[i], rest_hi[i] = column_min(rest) - pad, column_max(rest) + pad
-        if quadric_body(body, exact_quadrics):
+        if exact[i]:
             # The shape M q + t, held in the shape's frame: its centre moves as the points
             # did. Boxes: the extent of M q over the canonical box |q_k| <= e_k along axis
             # k is sum_j |M_kj| e_j (the sphere's exact: |row k of M|).
@@ -523,7 +433,7 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
         body_frame=frame[frame_of], body_rest_lo=rest_lo, body_rest_hi=rest_hi, body_start_lo=start_lo,
         body_start_hi=start_hi, rest_from_lab=rest_from_lab, body_quadric=quadric, quadric_inv=quadric_inv,
         quadric_centre=quadric_centre, quadric_param=quadric_param, body_mapped=mapped, body_map=body_map,
-        body_map_shift=map_shift, body_holder=holder, body_merged=merged,
+        body_map_shift=map_shift, body_holder=holder,
         vertex_normals=cat("normals", (0, 3), dtype),
         tri_normal=cat("tri_normal", (0, 3), dtype),
         tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), dtype),
@@ -568,7 +478,7 @@ def motion_segments(scene: Scene, shapes: RigidShapes, windows: list) -> MotionS
     (``merge_plan``) gets its holder's segments over the union of its members' windows,
     cut by the class's size."""
     windows = list(windows)
-    holder = shapes.body_holder
+    holder, merged = shapes.body_holder, shapes.body_merged
     for i in np.flatnonzero(holder != np.arange(len(holder))):
         windows[holder[i]] = union(windows[holder[i]], windows[i])
     rows = []
@@ -576,7 +486,7 @@ def motion_segments(scene: Scene, shapes: RigidShapes, windows: list) -> MotionS
         if shapes.body_shape[i] < 0 or holder[i] != i:
             continue
         size = _body_size(body)
-        if shapes.body_merged[i]:
+        if merged[i]:
             size = max(float(np.max(shapes.body_box_hi[i] - shapes.body_box_lo[i])), size)
         for t0, t1 in intervals(window):
             k = int(min(max(np.ceil(body.speed * (t1 - t0) / (SEGMENT_SWEEP * size)), 1), MAX_SEGMENTS))
