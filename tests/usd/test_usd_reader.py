@@ -735,3 +735,48 @@ def test_shipped_parade_scene():
     assert scene.settings.resolution == (640, 360) and scene.default_camera is not None
     state = scene.camera_state(None, scene.frame_range[0])
     np.testing.assert_allclose(state.rotation, np.eye(3), atol=TOL)
+
+
+def test_a_value_of_another_type_than_declared_is_an_error_naming_it():
+    """Regression (found by the byte-corruption fuzzer): a damaged .usdc held a point3f[]
+    whose value was a float[] of 4 (and a float3 whose value was a double), which crashed
+    the reader (exit 1). Law: a value whose type is not one the declared type allows is a
+    SceneError naming the file, prim and attribute. A damaged crate cannot be authored
+    through the USD API, so the attribute's ``Get`` is stood in for; everything else is
+    the real prim's."""
+    from pxr import Vt
+
+    from warp_st.core.scene import SceneError
+    from warp_st.usd.attributes import Where, vec3_array
+
+    stage = Usd.Stage.CreateInMemory()
+    mesh = UsdGeom.Mesh.Define(stage, "/Floor")
+    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+
+    class Damaged:
+        def __init__(self, wrapped, value):
+            self._wrapped, self._value = wrapped, value
+
+        def __getattr__(self, name):
+            return getattr(self._wrapped, name)
+
+        def Get(self, *args):
+            return self._value
+
+    class Prim:
+        def __init__(self, prim, value):
+            self._prim, self._value = prim, value
+
+        def __getattr__(self, name):
+            return getattr(self._prim, name)
+
+        def GetAttribute(self, name):
+            return Damaged(self._prim.GetAttribute(name), self._value)
+
+    where = Where("damaged.usdc")
+    assert vec3_array(where, Prim(mesh.GetPrim(), Vt.Vec3fArray([(0, 0, 0)])), "points").shape == (1, 3)
+    with pytest.raises(SceneError) as err:
+        vec3_array(where, Prim(mesh.GetPrim(), Vt.FloatArray(4)), "points")
+    message = str(err.value)
+    assert "damaged.usdc" in message and "/Floor" in message and "points" in message and "float[]" in message
+    assert "\n" not in message

@@ -182,6 +182,11 @@ def _raw(where: Where, prim, name: str, kinds: frozenset[str], what: str, time, 
     value = attr.Get(time)
     if value is None:
         return None, False
+    # A damaged file can hold a value of another type than the declared one (a flipped
+    # byte in a .usdc made a point3f[] a float[] of 4, a float3 a float).
+    held = Sdf.GetValueTypeNameForValue(value)
+    if held.type.typeName not in kinds:
+        raise where.error(prim, name, f"must be {what}; its value is {_text(held)}")
     return value, True
 
 
