@@ -31,7 +31,8 @@ ANCHOR_CELLS = 16
 def anchor_step(root_lo: np.ndarray, root_hi: np.ndarray) -> float:
     """G: the power of two at or above the root box's largest finite extent / ANCHOR_CELLS
     (0: none is finite and positive)."""
-    size = np.asarray(root_hi, dtype=np.float64) - np.asarray(root_lo, dtype=np.float64)
+    with np.errstate(invalid="ignore"):  # an empty database's box is [+inf, +inf]: inf - inf is NaN, dropped next
+        size = np.asarray(root_hi, dtype=np.float64) - np.asarray(root_lo, dtype=np.float64)
     size = size[np.isfinite(size) & (size > 0.0)]
     if not size.size:
         return 0.0
