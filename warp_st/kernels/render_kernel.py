@@ -19,6 +19,7 @@ from warp_st.kernels.spectrum import make_spectrum
 from warp_st.kernels.texture import make_textures
 from warp_st.kernels.trace import make_trace
 from warp_st.kernels.trace_rigid import make_trace_rigid
+from warp_st.kernels.traverse import make_traverse
 
 __all__ = ["get_kernels", "Kernels", "PIXELS_PER_THREAD"]
 
@@ -46,7 +47,7 @@ class Kernels:
         self.Shading, self.Camera, self.Film, self.render_pixels, self._make_unlit = _make_render(
             scalar, self, trace, Geometry)
         self._unlit = None
-        self._probe_parts = (scalar, self.vec3, self.vec4, Geometry, trace, prepare, leaf)
+        self._probe_parts = (scalar, self.vec3, self.vec4, Geometry, prepare, leaf)
         self._probe = None
 
     def pixels(self, lit: bool):
@@ -71,7 +72,11 @@ class Kernels:
 
     def _probes(self):
         if self._probe is None:  # built on first use: renders never compile them
-            self._probe = make_probe(*self._probe_parts)
+            scalar, vec3, vec4, Geometry, prepare, leaf = self._probe_parts
+            # The probe's traversal inlined into its kernel, as wp.mesh_query_ray is into a
+            # caller's: its constant arguments (no skips, closest hit) fold those branches.
+            self._probe = make_probe(scalar, vec3, vec4, Geometry, make_traverse(scalar, Geometry, prepare, leaf,
+                                                                                 inline=True), prepare, leaf)
         return self._probe
 
 

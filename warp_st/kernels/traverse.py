@@ -92,9 +92,11 @@ def make_sort4(scalar):
     return sort4
 
 
-def make_traverse(scalar, Geometry, prepare, leaf):
+def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None):
     """``trace(g, o, n, finite, s_min, s_max, skip_tri, skip_body, skip_dist, any_hit)``
     over ``Geometry``'s 4-wide BVH with the leaf test ``leaf`` (see the module docstring).
+    ``inline``: Warp's inlining of ``trace`` (None: the compiler's choice; True: into every
+    call site, where the caller's constant arguments then fold its branches away).
 
     Returns (primitive index or -1, s, barycentrics, nodes visited, stack overflowed).
     """
@@ -134,7 +136,7 @@ def make_traverse(scalar, Geometry, prepare, leaf):
 
     GeometryRef, expand = Geometry.Ref, Geometry.expand
 
-    @wp.func
+    @wp.func(inline=inline)
     def trace(
         r: GeometryRef,
         o: vec4,
