@@ -44,13 +44,15 @@ def test_the_anchor_is_the_event_on_a_power_of_two_grid():
     np.testing.assert_array_equal(geometry_anchor(np.array([1e308, 0, 0, 0]), 2.0 ** -100), [1e308, 0, 0, 0])
 
 
-def test_an_empty_database_has_no_anchor_grid_and_says_nothing_of_it():
+def test_an_empty_database_or_an_overflowing_grid_says_nothing_of_it():
     # An empty database's root box lies at t = +inf (accel/bvh.build_bvh): inf - inf is NaN,
-    # which is no extent; numpy must not print a RuntimeWarning into the user's render.
+    # which is no extent; a rounding to the grid that overflows falls back to the event.
+    # Neither may print numpy's RuntimeWarning into the user's render.
     far = np.array([np.inf, 0.0, 0.0, 0.0])
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert anchor_step(far, far.copy()) == 0.0
+        np.testing.assert_array_equal(geometry_anchor(np.array([1e308, 0, 0, 0]), 2.0 ** -100), [1e308, 0, 0, 0])
 
 
 def _render(path, frames, *, at_event: bool, monkeypatch, **kw):

@@ -46,5 +46,6 @@ def geometry_anchor(event: np.ndarray, step: float) -> np.ndarray:
     event = np.asarray(event, dtype=np.float64)
     if not step > 0.0:
         return event.copy()
-    anchor = np.round(event / step) * step
+    with np.errstate(over="ignore", invalid="ignore"):  # a rounding that overflows is not finite: the event
+        anchor = np.round(event / step) * step
     return anchor if np.isfinite(anchor).all() else event.copy()
