@@ -255,6 +255,14 @@ def _single_case(tmp_path_factory, case):
             assert_names(result, path.name, prim, name)
 
 
+def test_a_camera_speed_whose_square_underflows_renders_finite_depth(tmp_path_factory):
+    # Found by test_single_fault_stage_many (WARP_ST_FUZZ_SEED=2222): a camera speed of
+    # 1.5e-47 is not 0 in float64 (the camera counts as moving) but its square is 0 in the
+    # kernel's float32, and the rest-frame distance's (gamma - 1) / v.v was 0 / 0: NaN depth
+    # on every hit. It must render as a camera at rest does (check_image's laws).
+    _single_case(tmp_path_factory, ("cam_u", "custom double4 spacetime:fourVelocity = (1.0, 0.0, 0.0, 1.5e-47)"))
+
+
 @fuzz_settings(150)
 @given(case=single_fault())
 def test_single_fault_stage_renders_or_names_the_attribute(tmp_path_factory, case):
