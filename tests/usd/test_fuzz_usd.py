@@ -257,9 +257,10 @@ def _single_case(tmp_path_factory, case):
 
 def test_a_camera_speed_whose_square_underflows_renders_finite_depth(tmp_path_factory):
     # Found by test_single_fault_stage_many (WARP_ST_FUZZ_SEED=2222): a camera speed of
-    # 1.5e-47 is not 0 in float64 (the camera counts as moving) but its square is 0 in the
+    # 1.5e-47 is not 0 in float64 (the camera counted as moving) but its square is 0 in the
     # kernel's float32, and the rest-frame distance's (gamma - 1) / v.v was 0 / 0: NaN depth
-    # on every hit. It must render as a camera at rest does (check_image's laws).
+    # on every hit. It must render as a camera at rest does (check_image's laws;
+    # rendering/camera.make_camera decides "moving" in the kernel's float type).
     _single_case(tmp_path_factory, ("cam_u", "custom double4 spacetime:fourVelocity = (1.0, 0.0, 0.0, 1.5e-47)"))
 
 

@@ -160,8 +160,6 @@ def _make_render(scalar, k, trace, Geometry):
         if cam.decoupled != 0:
             return wp.length(dx - v * dt)
         vv = wp.dot(v, v)
-        if vv == scalar(0.0):  # a speed whose square underflows (|v| < ~1e-19 in float32): at rest to precision
-            return wp.length(dx)
         return wp.length(dx + ((cam.gamma - scalar(1.0)) / vv) * wp.dot(v, dx) * v - cam.gamma * dt * v)
 
     @wp.func

@@ -60,7 +60,12 @@ def make_camera(
     c.height = int(height)
     c.velocity = k.vec3(*[float(x) for x in cam.velocity])
     c.gamma = camera_velocity_gamma(cam)
-    c.moving = 1 if float(np.linalg.norm(cam.velocity)) > 0.0 else 0
+    # Moving when v.v is a normal number in the kernels' float type: a speed whose square
+    # underflows there (|v| < ~1e-19 in float32) is at rest to their precision, and the
+    # boosts' (gamma - 1) / v.v would be 0 / 0 (NaN depth on every hit).
+    ns = np.float32 if k.scalar == wp.float32 else np.float64
+    v = np.asarray(cam.velocity, dtype=np.float64).astype(ns).astype(np.float64)
+    c.moving = 1 if float(np.dot(v, v)) >= float(np.finfo(ns).tiny) else 0
     c.decoupled = 1 if cam.decoupled else 0
     c.finite = 1 if LightSpeed(light_speed) == LightSpeed.FINITE else 0
     c.samples = int(samples)
