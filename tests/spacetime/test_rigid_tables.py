@@ -80,3 +80,56 @@ def test_instances_share_their_shading_tables_but_not_their_materials(monkeypatc
     assert [round(c[0], 3) for c in materials] == [0.1, 0.3, 0.5, 0.7]
     # Each body's lab box is its own: the copies are 3 apart along x.
     np.testing.assert_allclose(shared.body_box_lo[[1, 3], 0] - shared.body_box_lo[[0, 2], 0], 3.0, rtol=0, atol=1e-12)
+
+
+def _mixed_bodies():
+    """``_copies`` and bodies whose materials appear first in later bodies: two surfaces
+    with per-face subset materials, a surface of degenerate triangles only (its
+    materials are never used), a body without surfaces, a material shared with a copy."""
+    import numpy as np
+
+    from warp_st.core import tessellate
+    from warp_st.core.scene import Body, Material, Surface
+
+    copies = _copies().bodies
+    pts, tris, nrm = tessellate.sphere(0.5, 6)
+    red, green, blue, unused = (Material(diffuse=(c, 0.2, 0.3)) for c in (0.9, 0.8, 0.7, 0.6))
+    faces = np.arange(len(tris)) % 3
+    two = (Surface("/M/a", pts + [0.0, 4.0, -9.0], tris, green, nrm, subset_materials=(red, blue),
+                   triangle_material=faces),
+           Surface("/M/b", pts + [1.0, 4.0, -9.0], tris, blue, None, subset_materials=(copies[3].surfaces[0].material,),
+                   triangle_material=faces % 2))
+    dead = Surface("/D/a", pts, np.zeros((4, 3), np.int64), unused)
+    return (Body("/M", two, np.array([0.5, 4.0, -9.0]), np.array([0.0, 0.3, 0.0]), 0.0),
+            Body("/E", (), np.zeros(3), np.zeros(3), 0.0), copies[0], copies[3],
+            Body("/D", (dead, copies[1].surfaces[0]), copies[1].origin, np.zeros(3), 0.0), copies[1], copies[2])
+
+
+def test_bodies_triangles_are_the_calls_in_body_order():
+    """Law: ``extrude.bodies_triangles`` (the distinct triangle sets made on the thread
+    pool) gives what ``body_triangles`` called body after body gives: the same materials
+    in the same order (so the same indices), every table equal, and, with the memo, the
+    same bodies sharing one triangle table. Oracle: those calls."""
+    import numpy as np
+
+    from warp_st.spacetime.extrude import bodies_triangles, body_triangles
+
+    bodies = _mixed_bodies()
+    for shared in (True, False):
+        memo = {} if shared else None
+        want_m, want_i, got_m, got_i = [], {}, [], {}
+        want = [body_triangles(b, want_m, want_i, memo) if b.surfaces else None for b in bodies]
+        got = bodies_triangles(bodies, got_m, got_i, shared=shared)
+        assert got_m == want_m and len(got_m) == 7
+        assert not any(m is bodies[4].surfaces[0].material for m in got_m)  # degenerate triangles only: unused
+        assert [g is None for g in got] == [w is None for w in want] == [False, True, False, False, False, False,
+                                                                          False]
+        for g, w in zip(got, want):
+            if w is not None:
+                for name in ("rest", "local", "normals", "triangles", "tri_normal", "tri_smooth", "tri_size",
+                             "tri_material", "tri_st"):
+                    np.testing.assert_array_equal(getattr(g, name), getattr(w, name), err_msg=name)
+        ids = [None if w is None else id(w.triangles) for w in want]
+        gids = [None if g is None else id(g.triangles) for g in got]
+        assert [gids.index(x) for x in gids] == [ids.index(x) for x in ids]
+        assert len(set(ids)) == (5 if shared else 7)  # /S0, /S1 and the /D body's copy of /S1 share

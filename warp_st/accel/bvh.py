@@ -64,11 +64,13 @@ class FlatBVH:
 
 
 def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", *, leaf_size: int = LEAF_SIZE,
-              uniform_t: bool = False) -> FlatBVH:
+              uniform_t: bool = False, level_threads: int = 2) -> FlatBVH:
     """Build the BVH over primitive boxes ``prim_lo``/``prim_hi`` of shape (N, 4);
     ``primitive`` picks the SAH intersection cost; ranges of ``leaf_size`` primitives or
     fewer always become leaves (larger ones when the SAH says so). ``uniform_t``: every
-    box has the same time extent (a 3D build: the same tree, built faster)."""
+    box has the same time extent (a 3D build: the same tree, built faster).
+    ``level_threads``: 2 splits a wide level's nodes on two threads, 1 on the calling
+    thread alone (for builds that already run side by side: the same tree)."""
     start_clock = time.perf_counter()
     n = len(prim_lo)
     if n == 0:
@@ -78,7 +80,7 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
         far = np.array([[np.inf, 0.0, 0.0, 0.0]])
         return FlatBVH(far, far.copy(), np.zeros(1, np.int32), np.zeros(1, np.int32), np.zeros(0, np.int64), 0, 0.0)
     first, count, levels, order, depth = _sah_topology(prim_lo, prim_hi, SAH_COST_INTERSECT[primitive], leaf_size,
-                                                       uniform_t)
+                                                       uniform_t, level_threads)
     lo, hi = _bounds(prim_lo, prim_hi, first, count, levels, order)
     return FlatBVH(
         node_lo=lo,
@@ -101,7 +103,7 @@ def load_builder(primitive: str = "tet", *, leaf_size: int = LEAF_SIZE, uniform_
     wp.load_module(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t).module, device="cpu")
 
 
-def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, uniform_t: bool):
+def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, uniform_t: bool, level_threads: int):
     """Node ranges by binned SAH, one Warp launch per tree level."""
     import warp as wp
 
@@ -119,7 +121,8 @@ def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, unifo
     n_nodes, depth = 1, 0
     while len(seg_node):
         depth += 1
-        mid = _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, depth > SAH_FREE_DEPTH)
+        mid = _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, depth > SAH_FREE_DEPTH,
+                            level_threads)
         leaf = mid < 0
         first[seg_node[leaf]] = seg_start[leaf]
         count[seg_node[leaf]] = seg_end[leaf] - seg_start[leaf]
@@ -140,8 +143,9 @@ def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, unifo
 _SAH_KERNELS: dict = {}
 
 
-def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, force_median):
-    """Split one level's nodes; wide levels in two halves on two threads (disjoint ranges)."""
+def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, force_median, threads):
+    """Split one level's nodes; wide levels, with ``threads`` 2, in two halves on two
+    threads (disjoint ranges)."""
     m = len(seg_start)
     mids = wp.zeros(m, dtype=wp.int32, device="cpu")
     starts = wp.array(seg_start.astype(np.int32), dtype=wp.int32, device="cpu")
@@ -153,7 +157,7 @@ def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, for
             wp.launch(kernel, dim=hi - lo, inputs=[centre, plo, phi, order_w, starts[lo:hi], ends[lo:hi], flag, mids[lo:hi]],
                       device="cpu")
 
-    if m < 64:
+    if m < 64 or threads < 2:
         run(0, m)
     else:
         # Balance by primitive count, not node count.

@@ -28,7 +28,7 @@ from warp_st.core.extent import column_max, column_min
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Scene
 from warp_st.kernels.quadrics import QUADRIC_CAPSULE, QUADRIC_CONE, QUADRIC_CYLINDER, QUADRIC_SPHERE
-from warp_st.spacetime.extrude import TriangleTables, _body_size, body_triangles
+from warp_st.spacetime.extrude import TriangleTables, _body_size, bodies_triangles
 from warp_st.spacetime.merge_classes import merge_plan, merged_bodies, motion_group, pivot_offset
 from warp_st.spacetime.visibility import intervals, union
 
@@ -277,11 +277,9 @@ def _held_triangles(bodies: tuple, materials: list, mat_index: dict, dtype) -> l
     """Every body's ``_held`` triangles (None: none). With float32 tables, instances
     (``body_triangles``' memo: the same surfaces about their pivots in float32) share
     their held tables, each with its own ``rest``, ``local`` and materials."""
-    memo = {} if np.dtype(dtype) == np.float32 else None
     held: dict = {}  # id of a shared triangle table -> (that table, its held triangles)
     found = []
-    for b in bodies:
-        bt = body_triangles(b, materials, mat_index, memo) if b.surfaces else None
+    for bt in bodies_triangles(bodies, materials, mat_index, shared=np.dtype(dtype) == np.float32):
         if bt is None:
             found.append(None)
             continue
