@@ -100,3 +100,22 @@ def test_a_build_on_one_thread_is_the_build_on_two(uniform_t):
     assert one.node_count_total > 4 * 64
     for name in ("node_lo", "node_hi", "node_first", "node_count", "order"):
         assert np.array_equal(getattr(one, name), getattr(two, name)), name
+
+
+@pytest.mark.parametrize("uniform_t", [False, True])
+def test_float32_node_boxes_are_the_float64_ones(uniform_t):
+    """Law: for boxes that are float32 numbers (a bottom level's triangles), the node
+    boxes ``float32_boxes`` reduces in a Warp kernel (``kernels.bvh_build.node_boxes``,
+    from the split kernel's primitives in leaf order) are the float64 reduction's, every
+    node, bit for bit (min and max round nothing), over the same tree."""
+    lo, hi = _boxes(3000, seed=11)
+    if uniform_t:
+        lo[:, 0], hi[:, 0] = 0.0, 1.0e3
+    lo, hi = lo.astype(np.float32), hi.astype(np.float32)
+    ref = build_bvh(lo.astype(np.float64), hi.astype(np.float64), "tri", leaf_size=4, uniform_t=uniform_t)
+    fast = build_bvh(lo, hi, "tri", leaf_size=4, uniform_t=uniform_t, float32_boxes=True)
+    assert fast.node_lo.dtype == np.float32 and fast.node_count_total > 100
+    for name in ("node_first", "node_count", "order"):
+        assert np.array_equal(getattr(ref, name), getattr(fast, name)), name
+    assert np.array_equal(ref.node_lo, fast.node_lo.astype(np.float64))
+    assert np.array_equal(ref.node_hi, fast.node_hi.astype(np.float64))

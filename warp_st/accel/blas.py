@@ -56,23 +56,24 @@ def shape_tree(points: np.ndarray, triangles: np.ndarray, level_threads: int = 2
     quantised child boxes (``quantised``), link (W, 4) local, order (T,) the triangles in
     leaf order). ``points`` float32 (P, 3); ``level_threads``: ``bvh.build_bvh``'s."""
     a, b, c = (points[triangles[:, k]] for k in range(3))  # float32: the boxes are exact
-    # Pairwise, not a reduction over an axis of three (ten times slower in NumPy).
-    lo3 = np.minimum(np.minimum(a, b), c).astype(np.float64)
-    hi3 = np.maximum(np.maximum(a, b), c).astype(np.float64)
-    size = float(np.max(column_max(hi3) - column_min(lo3))) if len(triangles) else 1.0
-    span = 1.0e3 * max(size, 1.0e-30)
     n = len(triangles)
-    prim_lo = np.concatenate([np.zeros((n, 1)), lo3], axis=1)
-    prim_hi = np.concatenate([np.full((n, 1), span), hi3], axis=1)
-    bvh = build_bvh(prim_lo, prim_hi, "tri", leaf_size=SHAPE_LEAF, uniform_t=True, level_threads=level_threads)
+    # Pairwise, not a reduction over an axis of three (ten times slower in NumPy).
+    prim_lo = np.zeros((n, 4), np.float32)
+    prim_hi = np.empty((n, 4), np.float32)
+    np.minimum(np.minimum(a, b, out=prim_lo[:, 1:]), c, out=prim_lo[:, 1:])
+    np.maximum(np.maximum(a, b, out=prim_hi[:, 1:]), c, out=prim_hi[:, 1:])
+    size = float(np.max(column_max(prim_hi[:, 1:]) - column_min(prim_lo[:, 1:]))) if n else 1.0
+    prim_hi[:, 0] = 1.0e3 * max(size, 1.0e-30)
+    bvh = build_bvh(prim_lo, prim_hi, "tri", leaf_size=SHAPE_LEAF, uniform_t=True, level_threads=level_threads,
+                    float32_boxes=True)
     wide = collapse(bvh)
-    lo16, hi16 = wide_boxes(wide, bvh.node_lo, bvh.node_hi)
+    lo16, hi16 = wide_boxes(wide, bvh.node_lo[:, 1:], bvh.node_hi[:, 1:])
     # One float32 step outward: a ray along a box's face with a zero direction component
     # (an axis-aligned camera's centre column) would get the exit (hi - o) / d = 0 x 1e30
     # = 0 there, not +inf, and miss the box; widened, the face lies strictly outside
     # every ray that meets the triangles.
-    lo = np.nextafter(lo16[:, WIDTH:].astype(np.float32), np.float32(-np.inf))
-    hi = np.nextafter(hi16[:, WIDTH:].astype(np.float32), np.float32(np.inf))
+    lo = np.nextafter(lo16, np.float32(-np.inf))
+    hi = np.nextafter(hi16, np.float32(np.inf))
     q, frame = quantised(lo, hi, wide.slot_node < 0)
     return q, frame, wide.link, bvh.order
 

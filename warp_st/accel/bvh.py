@@ -40,7 +40,8 @@ SAH_COST_INTERSECT = {"tet": 2.0, "prism": 1.0, "rigid": 8.0, "tri": 1.0}
 class FlatBVH:
     """Node arrays of the 4D BVH, lab frame, float64.
 
-    node_lo, node_hi: box corners (t, x, y, z), shape (M, 4).
+    node_lo, node_hi: box corners (t, x, y, z), shape (M, 4) (float32 from a build
+        with ``float32_boxes``).
     node_first: first child (internal) or first primitive (leaf), (M,), int32.
     node_count: 0 for internal nodes, else the leaf's primitive count, (M,), int32.
     order: the primitive permutation; primitive i of the leaves is input order[i].
@@ -64,13 +65,15 @@ class FlatBVH:
 
 
 def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", *, leaf_size: int = LEAF_SIZE,
-              uniform_t: bool = False, level_threads: int = 2) -> FlatBVH:
+              uniform_t: bool = False, level_threads: int = 2, float32_boxes: bool = False) -> FlatBVH:
     """Build the BVH over primitive boxes ``prim_lo``/``prim_hi`` of shape (N, 4);
     ``primitive`` picks the SAH intersection cost; ranges of ``leaf_size`` primitives or
     fewer always become leaves (larger ones when the SAH says so). ``uniform_t``: every
     box has the same time extent (a 3D build: the same tree, built faster).
     ``level_threads``: 2 splits a wide level's nodes on two threads, 1 on the calling
-    thread alone (for builds that already run side by side: the same tree)."""
+    thread alone (for builds that already run side by side: the same tree).
+    ``float32_boxes``: the boxes are float32 numbers (a bottom level's triangles), so are
+    the node boxes, reduced in a Warp kernel (the same values, without float64 copies)."""
     start_clock = time.perf_counter()
     n = len(prim_lo)
     if n == 0:
@@ -79,9 +82,12 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
         # anything else; bvh_wide.collapse gives one empty wide node).
         far = np.array([[np.inf, 0.0, 0.0, 0.0]])
         return FlatBVH(far, far.copy(), np.zeros(1, np.int32), np.zeros(1, np.int32), np.zeros(0, np.int64), 0, 0.0)
-    first, count, levels, order, depth = _sah_topology(prim_lo, prim_hi, SAH_COST_INTERSECT[primitive], leaf_size,
-                                                       uniform_t, level_threads)
-    lo, hi = _bounds(prim_lo, prim_hi, first, count, levels, order)
+    first, count, levels, order, depth, plo, phi = _sah_topology(prim_lo, prim_hi, SAH_COST_INTERSECT[primitive],
+                                                                 leaf_size, uniform_t, level_threads)
+    if float32_boxes:
+        lo, hi = _bounds32(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t)[1], first, count, plo, phi)
+    else:
+        lo, hi = _bounds(prim_lo, prim_hi, first, count, levels, order)
     return FlatBVH(
         node_lo=lo,
         node_hi=hi,
@@ -94,20 +100,20 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
 
 
 def load_builder(primitive: str = "tet", *, leaf_size: int = LEAF_SIZE, uniform_t: bool = False) -> None:
-    """Make and load the split kernel ``build_bvh`` uses with these arguments, on the
-    calling thread, so that builds on other threads only launch it (Warp's code
-    generation parses Python with ``ast``, which CPython 3.11 does not allow on two
-    threads at once: docs/design/two-level.md)."""
+    """Make and load the split kernel ``build_bvh`` uses with these arguments (and the
+    node-box kernel, in its module), on the calling thread, so that builds on other
+    threads only launch them (Warp's code generation parses Python with ``ast``, which
+    CPython 3.11 does not allow on two threads at once: docs/design/two-level.md)."""
     import warp as wp
 
-    wp.load_module(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t).module, device="cpu")
+    wp.load_module(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t)[0].module, device="cpu")
 
 
 def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, uniform_t: bool, level_threads: int):
     """Node ranges by binned SAH, one Warp launch per tree level."""
     import warp as wp
 
-    kernel = _sah_kernel(cost_intersect, leaf_size, uniform_t)
+    kernel = _sah_kernel(cost_intersect, leaf_size, uniform_t)[0]
     n = len(prim_lo)
     plo = wp.array(prim_lo.astype(np.float32), dtype=wp.vec4, device="cpu")
     phi = wp.array(prim_hi.astype(np.float32), dtype=wp.vec4, device="cpu")
@@ -137,7 +143,7 @@ def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, unifo
         seg_start = np.concatenate([s0, split])
         seg_end = np.concatenate([split, s1])
         seg_node = np.concatenate([child, child + 1])
-    return first[:n_nodes], count[:n_nodes], levels, order_w.numpy().astype(np.int64), depth
+    return first[:n_nodes], count[:n_nodes], levels, order_w.numpy().astype(np.int64), depth, plo, phi
 
 
 _SAH_KERNELS: dict = {}
@@ -169,13 +175,28 @@ def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, for
 
 
 def _sah_kernel(cost_intersect: float, leaf_size: int, uniform_t: bool = False):
-    """The split kernel for one intersection cost and leaf size, built once per process."""
+    """The split and node-box kernels (one module) for one intersection cost and leaf
+    size, made once per process."""
     from warp_st.kernels.bvh_build import make_sah_split
 
     key = (cost_intersect, leaf_size, uniform_t)
     if key not in _SAH_KERNELS:
         _SAH_KERNELS[key] = make_sah_split(leaf_size, SAH_MAX_LEAF, SAH_COST_TRAVERSE, cost_intersect, uniform_t)
     return _SAH_KERNELS[key]
+
+
+def _bounds32(node_boxes, first, count, plo, phi):
+    """Node boxes in float32 by ``node_boxes`` (``kernels.bvh_build``) from the
+    primitives' boxes in leaf order (``plo``/``phi``, the split kernel's)."""
+    import warp as wp
+
+    m = len(first)
+    lo = wp.empty(m, dtype=wp.vec4, device="cpu")
+    hi = wp.empty(m, dtype=wp.vec4, device="cpu")
+    wp.launch(node_boxes, dim=1, inputs=[wp.array(first.astype(np.int32), dtype=wp.int32, device="cpu"),
+                                         wp.array(count.astype(np.int32), dtype=wp.int32, device="cpu"), plo, phi, lo,
+                                         hi], device="cpu")
+    return lo.numpy(), hi.numpy()
 
 
 def _bounds(prim_lo, prim_hi, first, count, levels, order):

@@ -20,9 +20,10 @@ BINS = 16
 
 
 def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_intersect: float, uniform_t: bool = False):
-    """The split kernel; ``uniform_t``: every primitive has the same time extent (a 3D
-    build, ``accel/blas.py``), which the bins then take from the node instead of
-    reducing it per primitive (the same trees)."""
+    """The split kernel and the node-box kernel, in one module (loaded together);
+    ``uniform_t``: every primitive has the same time extent (a 3D build,
+    ``accel/blas.py``), which the bins then take from the node instead of reducing it
+    per primitive (the same trees)."""
     T0 = 1 if uniform_t else 0
     vec4 = wp.vec4
     bins_i = wp.types.vector(BINS, wp.int32)
@@ -172,4 +173,34 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                 mid = lo_i
         out_mid[i] = mid
 
-    return sah_split
+    @wp.kernel(enable_backward=False, module=sah_split.module)
+    def node_boxes(
+        first: wp.array(dtype=wp.int32),
+        count: wp.array(dtype=wp.int32),
+        plo: wp.array(dtype=vec4),
+        phi: wp.array(dtype=vec4),
+        lo: wp.array(dtype=vec4),
+        hi: wp.array(dtype=vec4),
+    ):
+        """Every node's box, on one thread: nodes from the last to the root (a node's two
+        children come after it), a leaf's from its primitives (``plo``/``phi`` in leaf
+        order, as the split kernel leaves them), an inner node's from its children."""
+        m = first.shape[0]
+        for j in range(m):
+            node = m - 1 - j
+            f = first[node]
+            c = count[node]
+            if c > 0:
+                a = plo[f]
+                b = phi[f]
+                for k in range(f + 1, f + c):
+                    a = wp.min(a, plo[k])
+                    b = wp.max(b, phi[k])
+                lo[node] = a
+                hi[node] = b
+            else:
+                lo[node] = wp.min(lo[f], lo[f + 1])
+                hi[node] = wp.max(hi[f], hi[f + 1])
+
+    return sah_split, node_boxes
+
