@@ -20,6 +20,7 @@ into segments whose 4D boxes the top level bounds (frame-dependent, cheap).
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +28,7 @@ import numpy as np
 from warp_st.core.extent import column_max, column_min
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Scene
+from warp_st.core.thread_pool import thread_pool
 from warp_st.kernels.quadrics import QUADRIC_CAPSULE, QUADRIC_CONE, QUADRIC_CYLINDER, QUADRIC_SPHERE
 from warp_st.spacetime.extrude import TriangleTables, _body_size, bodies_triangles
 from warp_st.spacetime.merge_classes import merge_plan, merged_bodies, motion_group, pivot_offset
@@ -218,10 +220,10 @@ def renumbered(shapes: RigidShapes, orders: list, vidx, points, reorder) -> Rigi
         vfirst = np.cumsum([0] + [len(r) for r in rest])
         rest = tuple(points[a:b] for a, b in zip(vfirst[:-1], vfirst[1:]))
     perm = triangle_order(shapes, orders)
-    tables = {name: getattr(shapes, name)[perm] for name in ("tri_normal", "tri_smooth", "tri_size", "tri_body",
-                                                              "tri_material")}
-    if len(shapes.tri_st):
-        tables["tri_st"] = shapes.tri_st[perm]
+    names = ("tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material") + (("tri_st",) if len(shapes.tri_st)
+                                                                                     else ())
+    # Gathers of every triangle's rows, on the pool (NumPy releases the GIL in them).
+    tables = dict(zip(names, thread_pool(os.cpu_count() or 1).map(lambda name: getattr(shapes, name)[perm], names)))
     return dataclasses.replace(shapes, shape_vidx=vidx, shape_rest=rest,
                                shape_triangles=tuple(vidx[a:b] for a, b in zip(first[:-1], first[1:])),
                                reorder=reorder, **tables)
