@@ -9,7 +9,8 @@ primitives' centres and boxes with it, so every pass reads them in sequence, not
 the order (the same trees). The 4D analogue of
 a box's surface area is the sum of its 3-volumes, e_t (e_x e_y + e_y e_z + e_z e_x) +
 e_x e_y e_z: for boxes sharing one time extent (bodies at rest) it orders splits like
-the 3D surface area does.
+the 3D surface area does. A second kernel of the same module reduces every node's box
+from the partitioned primitives (float32 boxes: the bottom levels, ``accel/blas.py``).
 """
 import warp as wp
 
@@ -203,4 +204,3 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                 hi[node] = wp.max(hi[f], hi[f + 1])
 
     return sah_split, node_boxes
-
