@@ -62,7 +62,7 @@ class Database:
             wp.launch(k.brute_rays, dim=n, inputs=[self.geo, self.prim_count, o, d, int(finite), tet, s], device="cpu")
             return tet.numpy(), s.numpy().astype(np.float64), None
         visits = wp.zeros(n, dtype=wp.int32, device="cpu")
-        wp.launch(k.cast_rays, dim=n, inputs=[self.geo, o, d, int(finite), tet, s, visits], device="cpu")
+        wp.launch(k.cast_rays, dim=n, inputs=[self.geo, o, d, int(finite), tet, s, visits, 0], device="cpu")
         return tet.numpy(), s.numpy().astype(np.float64), visits.numpy()
 
 

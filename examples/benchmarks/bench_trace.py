@@ -129,8 +129,9 @@ def mesh_kernel():
             max_t: float,
             out_face: wp.array(dtype=wp.int32),
             out_t: wp.array(dtype=float),
+            first: int,
         ):
-            i = wp.tid()
+            i = wp.tid() + first  # a tile passes its first ray, as our probe's launches do
             q = wp.mesh_query_ray(mesh, origins[i], dirs[i], max_t)
             if q.result:
                 out_face[i] = q.face
@@ -155,8 +156,7 @@ def probe_launcher(k, geo, dirs):
            wp.zeros(n, dtype=wp.int32, device="cpu"))
 
     def launch(a, b):
-        wp.launch(k.cast_rays, dim=b - a, inputs=[geo, o4[a:b], dirs[a:b], 1, out[0][a:b], out[1][a:b], out[2][a:b]],
-                  device="cpu")
+        wp.launch(k.cast_rays, dim=b - a, inputs=[geo, o4, dirs, 1, out[0], out[1], out[2], a], device="cpu")
 
     return launch, out
 
@@ -178,7 +178,7 @@ def mesh_launcher(points, tris, dirs):
     t_hit = wp.zeros(n, dtype=wp.float32, device="cpu")
 
     def launch(a, b, wmesh=wmesh):
-        wp.launch(mk, dim=b - a, inputs=[wmesh.id, o3[a:b], dirs[a:b], 1.0e30, face[a:b], t_hit[a:b]], device="cpu")
+        wp.launch(mk, dim=b - a, inputs=[wmesh.id, o3, dirs, 1.0e30, face, t_hit, a], device="cpu")
 
     return launch, (face, t_hit), mk
 

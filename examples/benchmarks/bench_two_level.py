@@ -174,8 +174,7 @@ class MeshQueries:
 
         def launch(tile):
             a, b = tile
-            wp.launch(self.kernel, dim=b - a, inputs=[mid, self.origins[a:b], self.dirs[a:b], self.face[a:b],
-                                                        self.t[a:b]], device="cpu")
+            wp.launch(self.kernel, dim=b - a, inputs=[mid, self.origins, self.dirs, self.face, self.t, a], device="cpu")
 
         return self.run(launch, threads)
 
@@ -236,8 +235,8 @@ class EmbreeQueries:
 def _mesh_kernel(wp):
     @wp.kernel(enable_backward=False, module="unique")
     def mesh_rays(mesh: wp.uint64, origins: wp.array(dtype=wp.vec3), dirs: wp.array(dtype=wp.vec3),
-                  out_face: wp.array(dtype=wp.int32), out_t: wp.array(dtype=float)):
-        i = wp.tid()
+                  out_face: wp.array(dtype=wp.int32), out_t: wp.array(dtype=float), first: int):
+        i = wp.tid() + first  # a tile passes its first ray, as our probe's launches do
         q = wp.mesh_query_ray(mesh, origins[i], dirs[i], 1.0e30)
         out_face[i] = wp.where(q.result, q.face, -1)
         out_t[i] = wp.where(q.result, q.t, wp.inf)
@@ -307,8 +306,8 @@ def closest_hits(r, geo, mesh, origin_event, label, args, log, finite=1):
     def ours(threads):
         def launch(tile):
             a, b = tile
-            wp.launch(r.kernels.cast_rays, dim=b - a, inputs=[geo, outs[0][a:b], mesh.dirs[a:b], finite, outs[1][a:b],
-                                                              outs[2][a:b], outs[3][a:b]], device="cpu")
+            wp.launch(r.kernels.cast_rays, dim=b - a, inputs=[geo, outs[0], mesh.dirs, finite, outs[1], outs[2], outs[3],
+                                                              a], device="cpu")
 
         return mesh.run(launch, threads)
 

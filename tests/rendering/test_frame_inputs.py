@@ -171,7 +171,7 @@ def test_mean_visits_are_the_primary_rays_visits():
     s = wp.zeros(n, dtype=wp.float32, device="cpu")
     visits = wp.zeros(n, dtype=wp.int32, device="cpu")
     wp.launch(k.cast_rays, dim=n, inputs=[geo, wp.zeros(n, dtype=k.vec4, device="cpu"),
-                                          wp.array(dirs, dtype=wp.vec3, device="cpu"), 1, prim, s, visits],
+                                          wp.array(dirs, dtype=wp.vec3, device="cpu"), 1, prim, s, visits, 0],
               device="cpu")
     expected = visits.numpy().mean()
     assert expected > 0.2  # a quarter of the rays enter the scene box
