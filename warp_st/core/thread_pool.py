@@ -1,7 +1,8 @@
 """The process's thread pools, one per size, kept between calls (starting the threads
 cost ~10 ms a frame): the renderer's tile launches (``wp.launch`` releases the GIL: two
 threads give ~1.6-1.9x on two cores), an image's bands of rows, the bottom levels'
-shapes. A task must not wait for another task of the same pool: the BVH builder's level
+shapes, the bodies' triangle sets and the shapes' table gathers (NumPy releases the GIL
+in them). A task must not wait for another task of the same pool: the BVH builder's level
 splits, run inside the shapes' tasks, take a pool of another name (``accel/bvh.py``)."""
 from __future__ import annotations
 
