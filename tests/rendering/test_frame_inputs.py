@@ -178,6 +178,34 @@ def test_mean_visits_are_the_primary_rays_visits():
     assert r.stats.last_mean_visits == pytest.approx(expected, rel=0.01)
 
 
+def test_the_probe_traces_a_tile_from_its_first_ray():
+    """Law: ``cast_rays`` launched on tiles, each with its first ray (how the benchmarks
+    launch it, as the renderer's tiles pass their pixel range), writes what one launch
+    over every ray writes, ray for ray (the same rays through the same kernel: exact)."""
+    scene = receding_spheres()
+    r = Renderer(scene, width=64, height=64, max_depth=0)
+    r.render(0.0)
+    cam = scene.camera_state(scene.default_camera, 0.0)
+    dirs = wp.array(pixel_directions(cam, 64, 64, frame="lab").reshape(-1, 3).astype(np.float32), dtype=wp.vec3,
+                    device="cpu")
+    geo = r.database.geometry_for("float32", (0.0, 0.0, 0.0, 0.0), None)
+    n = dirs.shape[0]
+    k = r.kernels
+    origins = wp.zeros(n, dtype=k.vec4, device="cpu")
+    outs = []
+    for tiles in ([(0, n)], [(0, 1000), (1000, 3000), (3000, n)]):
+        out = [wp.full(n, -7, dtype=wp.int32, device="cpu"), wp.zeros(n, dtype=wp.float32, device="cpu"),
+               wp.zeros(n, dtype=wp.int32, device="cpu")]
+        for a, b in tiles:
+            wp.launch(k.cast_rays, dim=b - a, inputs=[geo, origins, dirs, 1, *out, a], device="cpu")
+        outs.append([o.numpy() for o in out])
+    (prim, s, visits), (tile_prim, tile_s, tile_visits) = outs
+    assert (prim >= 0).sum() > 100 and (prim == -1).sum() > n // 2  # hits and misses
+    np.testing.assert_array_equal(tile_prim, prim)
+    np.testing.assert_array_equal(tile_s, s)
+    np.testing.assert_array_equal(tile_visits, visits)
+
+
 def test_image_memory_is_reused_only_once_its_image_is_gone(parade):
     """A live Image's planes are never handed to the next render; a dropped one's are."""
     r = Renderer(parade, frames=[0.0, 24.0], width=64, height=36)
