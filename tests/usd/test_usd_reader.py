@@ -780,3 +780,23 @@ def test_a_value_of_another_type_than_declared_is_an_error_naming_it():
     message = str(err.value)
     assert "damaged.usdc" in message and "/Floor" in message and "points" in message and "float[]" in message
     assert "\n" not in message
+
+
+def test_an_attribute_authored_as_a_relationship_is_an_error_naming_it(tmp_path):
+    """Regression (found by the byte-corruption fuzzer, seed 4242): a damaged .usdc held a
+    relationship spec under a light's ``inputs:intensity``, and reading its authored type
+    crashed the reader (exit 1: a RelationshipSpec has no typeName). Law: an attribute
+    whose strongest opinion is a relationship is a SceneError naming the file, prim and
+    attribute, on one line. The same spec authored in .usda text stands in for the
+    damaged crate."""
+    import warp_st
+    from warp_st.core.scene import SceneError
+
+    path = tmp_path / "relationship.usda"
+    path.write_text('#usda 1.0\ndef Camera "Cam"\n{\n}\ndef Cube "Box"\n{\n}\n'
+                    'def DistantLight "Sun"\n{\n    rel inputs:intensity = </Box>\n}\n')
+    with pytest.raises(SceneError) as err:
+        warp_st.load(str(path))
+    message = str(err.value)
+    assert "relationship.usda" in message and "/Sun" in message and "inputs:intensity" in message
+    assert "not a relationship" in message and "\n" not in message

@@ -142,15 +142,17 @@ def has_api(prim, name: str) -> bool:
         return name in op.GetAddedOrExplicitItems()
 
 
-def _authored_type(attr) -> Sdf.ValueTypeName:
-    """The type the strongest opinion was authored with.
+def _authored_type(attr) -> Sdf.ValueTypeName | None:
+    """The type the strongest opinion was authored with; None when that opinion is not
+    an attribute's (a damaged .usdc can hold a relationship spec under an attribute's
+    name).
 
     With the schema registered, ``GetTypeName`` reports the schema's type (double4)
     even when a layer authored another (``custom double3 ...``), and ``Get`` then
     returns the authored value unconverted; so the authored spec is what is checked.
     """
     for spec in attr.GetPropertyStack(DEFAULT_TIME):
-        return spec.typeName
+        return spec.typeName if isinstance(spec, Sdf.AttributeSpec) else None
     return attr.GetTypeName()
 
 
@@ -171,6 +173,8 @@ def _raw(where: Where, prim, name: str, kinds: frozenset[str], what: str, time, 
     if not attr or not attr.IsValid():
         return None, False
     type_name = _authored_type(attr)
+    if type_name is None:
+        raise where.error(prim, name, f"must be {what}, not a relationship")
     if type_name.isArray != array or type_name.type.typeName not in kinds:
         raise where.error(prim, name, f"must be {what}, not {_text(type_name)}")
     if (time == DEFAULT_TIME and name.startswith("spacetime:") and attr.GetNumTimeSamples() > 0
