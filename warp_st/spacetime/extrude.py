@@ -237,34 +237,27 @@ def _material_index(material, materials: list, mat_index: dict) -> int:
     return mat_index[material]
 
 
-def body_triangles(body: Body, materials: list, mat_index: dict, memo: dict | None = None) -> BodyTriangles | None:
+def body_triangles(body: Body, materials: list, mat_index: dict) -> BodyTriangles | None:
     """``body``'s triangle set (None without triangles); new materials are appended to
-    ``materials`` (``mat_index`` maps a Material to its index).
-
-    ``memo``: a dict shared by the calls for one scene (the rigid path's float32 tables).
-    Bodies whose surfaces agree in float32 relative to their pivots (instances: points
-    about the pivot, normals, texture coordinates and triangles; the precision their shared
-    shape is held in, ``spacetime.rigid``) with the same contraction share the shading
-    tables of the first: only ``rest``, ``local`` and the materials are their own. Facet
-    normals and sizes are computed from the contracted offsets about the pivot, A r, so
-    they do not depend on where the body is (nor lose digits to a far pivot)."""
-    A = contraction_matrix(body.velocity, body.decoupled)
-    if memo is None:
-        return _body_triangles(body, A, materials, mat_index)
-    rest = [np.asarray(s.points, dtype=np.float64) - body.origin for s in body.surfaces]
-    key = _instance_key(body, A, rest)
-    if key not in memo:
-        memo[key] = _body_triangles(body, A, materials, mat_index)
-    return _own_copy(body, memo[key], A, rest, materials, mat_index)
+    ``materials`` (``mat_index`` maps a Material to its index). Facet normals and sizes are
+    computed from the contracted offsets about the pivot, A r, so they do not depend on
+    where the body is (nor lose digits to a far pivot)."""
+    return _body_triangles(body, contraction_matrix(body.velocity, body.decoupled), materials, mat_index)
 
 
 def bodies_triangles(bodies, materials: list, mat_index: dict, *, shared: bool) -> list:
-    """``body_triangles`` of every body (None: no triangles), as calls in body order give
-    them (``shared``: with one memo), the distinct triangle sets made on the process's
-    thread pool, one thread per core (NumPy releases the GIL in their array work: 16
-    distinct 65k-triangle spheres took 58-78 ms on two threads against 133-162 in turn).
-    The materials are registered first, in the calls' order, so their indices are the
-    calls' and the threads only look them up."""
+    """``body_triangles`` of every body (None: no triangles), with the materials in the
+    order calls body after body give them, the distinct triangle sets made on the
+    process's thread pool, one thread per core (NumPy releases the GIL in their array
+    work: 16 distinct 65k-triangle spheres took 58-78 ms on two threads against 133-162 in
+    turn). The materials are registered first, in the calls' order, so their indices are
+    the calls' and the threads only look them up.
+
+    ``shared`` (the rigid path's float32 tables): bodies whose surfaces agree in float32
+    relative to their pivots (instances: points about the pivot, normals, texture
+    coordinates and triangles; the precision their shared shape is held in,
+    ``spacetime.rigid``) with the same contraction share the shading tables of the first:
+    only ``rest``, ``local`` and the materials are their own."""
     for body in bodies:
         for surf in body.surfaces:
             if surface_keep(surf).any():  # a surface with triangles: _triangle_materials' order

@@ -277,7 +277,7 @@ def _held(bt, dtype):
 
 def _held_triangles(bodies: tuple, materials: list, mat_index: dict, dtype) -> list:
     """Every body's ``_held`` triangles (None: none). With float32 tables, instances
-    (``body_triangles``' memo: the same surfaces about their pivots in float32) share
+    (``extrude.bodies_triangles``, shared: the same surfaces about their pivots in float32) share
     their held tables, each with its own ``rest``, ``local`` and materials."""
     held: dict = {}  # id of a shared triangle table -> (that table, its held triangles)
     found = []
