@@ -3,7 +3,7 @@ collapses: the same leaves, each reachable exactly once, with the binary boxes."
 import numpy as np
 import pytest
 
-from warp_st.accel.bvh import build_bvh
+from warp_st.accel.bvh import SPLIT_MIN, build_bvh
 from warp_st.accel.bvh_wide import LINK_MASK, LINK_SHIFT, WIDTH, collapse, wide_boxes
 
 
@@ -88,16 +88,17 @@ def test_a_3d_build_is_the_4d_build_of_the_same_boxes(n):
 
 @pytest.mark.parametrize("uniform_t", [False, True])
 def test_a_build_on_one_thread_is_the_build_on_two(uniform_t):
-    """Law: ``level_threads=1`` (the bottom levels' builds that run side by side on the
-    pool, accel/blas.py) splits every level on the calling thread and builds the tree the
-    two-thread split builds (disjoint node ranges on each thread), bit for bit. 20,000
-    boxes give levels of more than the 64 nodes the split starts at."""
+    """Law: ``threads=1`` (the bottom levels' builds that run side by side on the
+    pool, accel/blas.py) builds every subtree on the calling thread, and the tree is the
+    one built with the subtrees under the top levels on two threads (disjoint node
+    ranges on each), bit for bit, node numbers too. 20,000 boxes are more than the
+    builder's ``SPLIT_MIN``."""
     lo, hi = _boxes(20000, seed=3)
     if uniform_t:
         lo[:, 0], hi[:, 0] = 0.0, 1.0e3
-    one = build_bvh(lo, hi, "tri", leaf_size=4, uniform_t=uniform_t, level_threads=1)
-    two = build_bvh(lo, hi, "tri", leaf_size=4, uniform_t=uniform_t, level_threads=2)
-    assert one.node_count_total > 4 * 64
+    one = build_bvh(lo, hi, "tri", leaf_size=4, uniform_t=uniform_t, threads=1)
+    two = build_bvh(lo, hi, "tri", leaf_size=4, uniform_t=uniform_t, threads=2)
+    assert len(lo) >= SPLIT_MIN and one.node_count_total > 4 * 64
     for name in ("node_lo", "node_hi", "node_first", "node_count", "order"):
         assert np.array_equal(getattr(one, name), getattr(two, name)), name
 

@@ -2,7 +2,7 @@
 
 Every distinct shape of ``spacetime.rigid.RigidShapes`` gets a bounding volume hierarchy
 over its float32 triangles in body coordinates, built by our binned SAH builder
-(``bvh.build_bvh``, a Warp kernel per tree level) and collapsed to 4-wide nodes
+(``bvh.build_bvh``, a Warp kernel building the tree depth first) and collapsed to 4-wide nodes
 (``bvh_wide.collapse``), the same trees the top level uses. The builder is 4D: a
 triangle's box gets the time extent [0, L] with L a thousand times the shape's size,
 so its "surface" e_t (e_x e_y + e_y e_z + e_z e_x) + e_x e_y e_z is the 3D surface area
@@ -51,10 +51,10 @@ __all__ = ["BottomLevels", "bottom_levels", "leaf_order", "shape_tree"]
 SHAPE_LEAF = 4
 
 
-def shape_tree(points: np.ndarray, triangles: np.ndarray, level_threads: int = 2):
+def shape_tree(points: np.ndarray, triangles: np.ndarray, threads: int = 2):
     """The 4-wide tree of one shape: (q (W, 24) uint8 and frame (W, 6) float32, the
     quantised child boxes (``quantised``), link (W, 4) local, order (T,) the triangles in
-    leaf order). ``points`` float32 (P, 3); ``level_threads``: ``bvh.build_bvh``'s."""
+    leaf order). ``points`` float32 (P, 3); ``threads``: ``bvh.build_bvh``'s."""
     a, b, c = (points[triangles[:, k]] for k in range(3))  # float32: the boxes are exact
     n = len(triangles)
     # Pairwise, not a reduction over an axis of three (ten times slower in NumPy).
@@ -64,7 +64,7 @@ def shape_tree(points: np.ndarray, triangles: np.ndarray, level_threads: int = 2
     np.maximum(np.maximum(a, b, out=prim_hi[:, 1:]), c, out=prim_hi[:, 1:])
     size = float(np.max(column_max(prim_hi[:, 1:]) - column_min(prim_lo[:, 1:]))) if n else 1.0
     prim_hi[:, 0] = 1.0e3 * max(size, 1.0e-30)
-    bvh = build_bvh(prim_lo, prim_hi, "tri", leaf_size=SHAPE_LEAF, uniform_t=True, level_threads=level_threads,
+    bvh = build_bvh(prim_lo, prim_hi, "tri", leaf_size=SHAPE_LEAF, uniform_t=True, threads=threads,
                     float32_boxes=True)
     wide = collapse(bvh)
     lo16, hi16 = wide_boxes(wide, bvh.node_lo[:, 1:], bvh.node_hi[:, 1:])
@@ -178,8 +178,8 @@ def _build_trees(shapes_in: list, built: list) -> dict:
     triangles) pairs), by shape index, on a thread pool of one thread per core
     (``core.thread_pool``), largest first. The split kernel is made and loaded first, on
     the calling thread (``bvh.load_builder``). Each tree depends on its shape alone, so
-    the trees are the serial build's whatever the thread count. A shape splits its tree
-    levels on two threads of its own only when it holds more than its share of a core's
+    the trees are the serial build's whatever the thread count. A shape builds its
+    subtrees on two threads of its own only when it holds more than its share of a core's
     triangles (the other shapes cannot keep the cores busy beside it): with every core
     building shapes, those threads only compete (16 distinct 65k-triangle spheres built
     in 387-409 ms without them against 446-467 with them, medians of 9)."""
@@ -191,7 +191,7 @@ def _build_trees(shapes_in: list, built: list) -> dict:
     total = sum(len(shapes_in[s][1]) for s in built)
 
     def tree(s):
-        return shape_tree(*shapes_in[s], level_threads=2 if len(shapes_in[s][1]) * cores > total else 1)
+        return shape_tree(*shapes_in[s], threads=2 if len(shapes_in[s][1]) * cores > total else 1)
 
     return dict(zip(order, thread_pool(cores).map(tree, order)))
 

@@ -1,10 +1,10 @@
 """A 4D bounding volume hierarchy over the primitives of the database (prisms or tetrahedra).
 
 ``wp.Bvh`` is 3D only, so the hierarchy over (t, x, y, z) boxes is ours: a binned
-surface-area heuristic over 4D boxes, split level by level by a Warp kernel (one thread
-per node, see ``kernels/bvh_build.py``). Every node is a contiguous range of a primitive
-order and the two children of a node are stored next to each other, so a node needs
-only its first child. The kernel traces its 4-wide form (bvh_wide.py). (A Morton-code
+surface-area heuristic over 4D boxes, built depth first by a Warp kernel (one thread per
+subtree, see ``kernels/bvh_build.py``). Every node is a contiguous range of a primitive
+order and the two children of a node are stored next to each other, after it, so a node
+needs only its first child. The kernel traces its 4-wide form (bvh_wide.py). (A Morton-code
 linear BVH built 2x faster but traced 2-3x slower on the benchmark scenes, so it was
 dropped.)
 """
@@ -16,12 +16,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from warp_st.core.thread_pool import thread_pool
-from warp_st.kernels.layout import MAX_DEPTH, SAH_FREE_DEPTH
+from warp_st.kernels.layout import MAX_DEPTH
 
 __all__ = ["FlatBVH", "build_bvh", "load_builder", "LEAF_SIZE", "MAX_DEPTH"]
 
 #: Ranges this small always become leaves.
 LEAF_SIZE = 4
+#: Builds of this many primitives or more make their top TOP_DEPTH levels first and
+#: then the subtrees under them, which can run on two threads.
+SPLIT_MIN = 4096
+TOP_DEPTH = 3
 #: Largest primitive count in a SAH leaf (a leaf is made when the SAH says it is cheaper).
 SAH_MAX_LEAF = 4
 #: SAH costs: a node visit against one primitive test, per primitive kind (tuned on the
@@ -65,12 +69,12 @@ class FlatBVH:
 
 
 def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", *, leaf_size: int = LEAF_SIZE,
-              uniform_t: bool = False, level_threads: int = 2, float32_boxes: bool = False) -> FlatBVH:
+              uniform_t: bool = False, threads: int = 2, float32_boxes: bool = False) -> FlatBVH:
     """Build the BVH over primitive boxes ``prim_lo``/``prim_hi`` of shape (N, 4);
     ``primitive`` picks the SAH intersection cost; ranges of ``leaf_size`` primitives or
     fewer always become leaves (larger ones when the SAH says so). ``uniform_t``: every
     box has the same time extent (a 3D build: the same tree, built faster).
-    ``level_threads``: 2 splits a wide level's nodes on two threads, 1 on the calling
+    ``threads``: 2 builds the subtrees of a large build on two threads, 1 on the calling
     thread alone (for builds that already run side by side: the same tree).
     ``float32_boxes``: the boxes are float32 numbers (a bottom level's triangles), so are
     the node boxes, reduced in a Warp kernel (the same values, without float64 copies)."""
@@ -82,12 +86,12 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
         # anything else; bvh_wide.collapse gives one empty wide node).
         far = np.array([[np.inf, 0.0, 0.0, 0.0]])
         return FlatBVH(far, far.copy(), np.zeros(1, np.int32), np.zeros(1, np.int32), np.zeros(0, np.int64), 0, 0.0)
-    first, count, levels, order, depth, plo, phi = _sah_topology(prim_lo, prim_hi, SAH_COST_INTERSECT[primitive],
-                                                                 leaf_size, uniform_t, level_threads)
+    first, count, node_depth, order, depth, plo, phi = _sah_topology(prim_lo, prim_hi, SAH_COST_INTERSECT[primitive],
+                                                                     leaf_size, uniform_t, threads)
     if float32_boxes:
         lo, hi = _bounds32(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t)[1], first, count, plo, phi)
     else:
-        lo, hi = _bounds(prim_lo, prim_hi, first, count, levels, order)
+        lo, hi = _bounds(prim_lo, prim_hi, first, count, node_depth, order)
     return FlatBVH(
         node_lo=lo,
         node_hi=hi,
@@ -109,8 +113,13 @@ def load_builder(primitive: str = "tet", *, leaf_size: int = LEAF_SIZE, uniform_
     wp.load_module(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t)[0].module, device="cpu")
 
 
-def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, uniform_t: bool, level_threads: int):
-    """Node ranges by binned SAH, one Warp launch per tree level."""
+def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, uniform_t: bool, threads: int):
+    """Node ranges by binned SAH (``kernels/bvh_build.sah_tree``): the node slots' first
+    child or primitive, count and depth (children after their parent, side by side, the
+    left subtree before the right one), the order, the tree's depth and the primitive
+    boxes in leaf order. A build of ``SPLIT_MIN`` primitives or more makes its top
+    ``TOP_DEPTH`` levels first, then the subtrees under them, on ``threads`` threads (up
+    to 2): the slots are the same for any thread count."""
     import warp as wp
 
     kernel = _sah_kernel(cost_intersect, leaf_size, uniform_t)[0]
@@ -119,59 +128,52 @@ def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, unifo
     phi = wp.array(prim_hi.astype(np.float32), dtype=wp.vec4, device="cpu")
     centre = wp.array((0.5 * (prim_lo + prim_hi)).astype(np.float32), dtype=wp.vec4, device="cpu")
     order_w = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32, device="cpu")
-    cap = 2 * n
-    first = np.zeros(cap, np.int64)
-    count = np.zeros(cap, np.int64)
-    levels = []
-    seg_start, seg_end, seg_node = np.array([0]), np.array([n]), np.array([0])
-    n_nodes, depth = 1, 0
-    while len(seg_node):
-        depth += 1
-        mid = _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, depth > SAH_FREE_DEPTH,
-                            level_threads)
-        leaf = mid < 0
-        first[seg_node[leaf]] = seg_start[leaf]
-        count[seg_node[leaf]] = seg_end[leaf] - seg_start[leaf]
-        s0, s1, split, node = seg_start[~leaf], seg_end[~leaf], mid[~leaf], seg_node[~leaf]
-        if len(node) == 0:
-            break
-        child = n_nodes + 2 * np.arange(len(node))
-        first[node] = child
-        count[node] = 0
-        n_nodes += 2 * len(node)
-        levels.append(node)
-        seg_start = np.concatenate([s0, split])
-        seg_end = np.concatenate([split, s1])
-        seg_node = np.concatenate([child, child + 1])
-    return first[:n_nodes], count[:n_nodes], levels, order_w.numpy().astype(np.int64), depth, plo, phi
+    split = n >= SPLIT_MIN
+    cap = 2 * n + (2 << TOP_DEPTH if split else 0)
+    first = wp.empty(cap, dtype=wp.int32, device="cpu")
+    count = wp.empty(cap, dtype=wp.int32, device="cpu")
+    depth = wp.empty(cap, dtype=wp.int32, device="cpu")
+
+    def grow(roots, starts, ends, depths, bases, stop):
+        used = wp.empty(len(roots), dtype=wp.int32, device="cpu")
+        ints = [wp.array(np.asarray(a, np.int32), dtype=wp.int32, device="cpu") for a in (roots, starts, ends, depths,
+                                                                                           bases)]
+        wp.launch(kernel, dim=len(roots), inputs=[centre, plo, phi, order_w, *ints, stop, first, count, depth, used],
+                  device="cpu")
+        return used.numpy()
+
+    top = 1 + int(grow([0], [0], [n], [0], [1], TOP_DEPTH if split else MAX_DEPTH + 1)[0])
+    f, c, d = first.numpy(), count.numpy(), depth.numpy()
+    held = np.nonzero(c[:top] < 0)[0]  # the open nodes at the top's last level
+    if len(held) == 0:
+        f, c, d = f[:top], c[:top], d[:top]
+    else:
+        starts = f[held].astype(np.int64)
+        ends = starts - c[held]
+        bases = top + 2 * starts  # a subtree of m primitives takes at most 2 m - 2 slots
+        args = (held, starts, ends, d[held], bases, MAX_DEPTH + 1)
+        if threads >= 2 and len(held) > 1:
+            # Two halves of about equal primitive counts, each one launch on a thread.
+            work = np.cumsum(ends - starts)
+            cut = min(max(int(np.searchsorted(work, work[-1] / 2)), 1), len(held) - 1)
+            parts = list(thread_pool(2, "warp-st-bvh").map(lambda p: grow(*(a[p] for a in args[:5]), args[5]),
+                                                            [slice(0, cut), slice(cut, None)]))
+            used = np.concatenate(parts)
+        else:
+            used = grow(*args)
+        # Drop the slots the subtrees left free.
+        keep = np.zeros(cap, bool)
+        keep[:top] = True
+        taken = np.repeat(bases - np.cumsum(np.r_[0, used[:-1]]), used) + np.arange(int(used.sum()))
+        keep[taken] = True
+        slot = np.cumsum(keep) - 1
+        f, c, d = f[keep], c[keep], d[keep]
+        f = np.where(c == 0, slot[f], f)
+    return (f.astype(np.int64), c.astype(np.int64), d.astype(np.int64), order_w.numpy().astype(np.int64),
+            int(d.max()) + 1, plo, phi)
 
 
 _SAH_KERNELS: dict = {}
-
-
-def _launch_split(wp, kernel, centre, plo, phi, order_w, seg_start, seg_end, force_median, threads):
-    """Split one level's nodes; wide levels, with ``threads`` 2, in two halves on two
-    threads (disjoint ranges)."""
-    m = len(seg_start)
-    mids = wp.zeros(m, dtype=wp.int32, device="cpu")
-    starts = wp.array(seg_start.astype(np.int32), dtype=wp.int32, device="cpu")
-    ends = wp.array(seg_end.astype(np.int32), dtype=wp.int32, device="cpu")
-    flag = 1 if force_median else 0
-
-    def run(lo, hi):
-        if hi > lo:
-            wp.launch(kernel, dim=hi - lo, inputs=[centre, plo, phi, order_w, starts[lo:hi], ends[lo:hi], flag, mids[lo:hi]],
-                      device="cpu")
-
-    if m < 64 or threads < 2:
-        run(0, m)
-    else:
-        # Balance by primitive count, not node count.
-        work = np.cumsum(seg_end - seg_start)
-        half = int(np.searchsorted(work, work[-1] / 2))
-        # Its own pool: these run inside the bottom levels' shape tasks (accel/blas.py).
-        list(thread_pool(2, "warp-st-bvh").map(lambda r: run(*r), [(0, half), (half, m)]))
-    return mids.numpy().astype(np.int64)
 
 
 def _sah_kernel(cost_intersect: float, leaf_size: int, uniform_t: bool = False):
@@ -199,8 +201,9 @@ def _bounds32(node_boxes, first, count, plo, phi):
     return lo.numpy(), hi.numpy()
 
 
-def _bounds(prim_lo, prim_hi, first, count, levels, order):
-    """Node boxes bottom-up: leaves by one reduceat each, then parents level by level."""
+def _bounds(prim_lo, prim_hi, first, count, depth, order):
+    """Node boxes bottom-up: leaves by one reduceat each, then parents level by level
+    (``depth``: each node's), deepest first."""
     n_nodes = len(first)
     lo = np.empty((n_nodes, 4))
     hi = np.empty((n_nodes, 4))
@@ -210,7 +213,10 @@ def _bounds(prim_lo, prim_hi, first, count, levels, order):
     plo, phi = prim_lo[order], prim_hi[order]
     lo[leaves] = np.minimum.reduceat(plo, first[leaves], axis=0)
     hi[leaves] = np.maximum.reduceat(phi, first[leaves], axis=0)
-    for node in reversed(levels):  # children are always on a deeper level
+    inner = np.nonzero(count == 0)[0]
+    inner = inner[np.argsort(-depth[inner], kind="stable")]
+    cuts = np.nonzero(np.diff(depth[inner]))[0] + 1
+    for node in np.split(inner, cuts):  # children are always on a deeper level
         c = first[node]
         lo[node] = np.minimum(lo[c], lo[c + 1])
         hi[node] = np.maximum(hi[c], hi[c + 1])

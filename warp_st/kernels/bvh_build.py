@@ -1,6 +1,8 @@
-"""Binned SAH split of BVH nodes over 4D boxes (pure Warp device code, one thread per node).
+"""Binned SAH build of BVHs over 4D boxes (pure Warp device code, one thread per subtree).
 
-Each thread takes one node's contiguous range of the primitive order, bins the
+A thread builds a whole subtree depth first (``sah_tree``, one launch per tree or per
+batch of subtrees, not one per level: docs/design/two-level.md). Each node's split
+(``split``) takes the node's contiguous range of the primitive order, bins the
 primitive centres along each of the four axes (t, x, y, z) in one pass (the trees are
 the same as binning axis by axis; the build of a 65k-triangle bottom level is 25 %
 faster: 71-76 ms against 95-101, medians of 7, alternated), evaluates the surface-area
@@ -14,10 +16,14 @@ from the partitioned primitives (float32 boxes: the bottom levels, ``accel/blas.
 """
 import warp as wp
 
+from warp_st.kernels.layout import MAX_DEPTH, SAH_FREE_DEPTH
+
 __all__ = ["BINS", "make_sah_split"]
 
 #: Bins per axis.
 BINS = 16
+#: Depth bound of a tree (its nodes on the build's stack, one more than the depth).
+STACK = MAX_DEPTH + 2
 
 
 def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_intersect: float, uniform_t: bool = False):
@@ -29,8 +35,9 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
     vec4 = wp.vec4
     bins_i = wp.types.vector(BINS, wp.int32)
     bins_f = wp.types.vector(BINS, wp.float32)
-    bins4_i = wp.types.vector(4 * BINS, wp.int32)
-    bins4_box = wp.types.vector(4 * BINS * 8, wp.float32)
+    AXES = 4 - T0  # the binned axes: t, x, y, z, or (uniform_t) x, y, z
+    bins4_i = wp.types.vector(AXES * BINS, wp.int32)
+    bins4_box = wp.types.matrix(shape=(AXES * BINS, 4), dtype=wp.float32)  # a bin box corner a row
     BIG = 3.0e38
 
     @wp.func
@@ -42,24 +49,14 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
     def bin_of(c: float, lo: float, scale: float) -> int:
         return wp.clamp(int((c - lo) * scale), 0, BINS - 1)
 
-    @wp.kernel(enable_backward=False, module="unique")
-    def sah_split(
-        centre: wp.array(dtype=vec4),
-        plo: wp.array(dtype=vec4),
-        phi: wp.array(dtype=vec4),
-        order: wp.array(dtype=wp.int32),
-        seg_start: wp.array(dtype=wp.int32),
-        seg_end: wp.array(dtype=wp.int32),
-        force_median: int,
-        out_mid: wp.array(dtype=wp.int32),
-    ):
-        i = wp.tid()
-        s0 = seg_start[i]
-        s1 = seg_end[i]
+    @wp.func
+    def split(centre: wp.array(dtype=vec4), plo: wp.array(dtype=vec4), phi: wp.array(dtype=vec4),
+              order: wp.array(dtype=wp.int32), s0: int, s1: int, force_median: int):
+        """The split of the node of range [s0, s1): its first right primitive, its range
+        partitioned in place; -1: the node is a leaf."""
         n = s1 - s0
-        out_mid[i] = -1
         if n <= min_leaf:
-            return
+            return -1
         # Node box and centre bounds.
         nlo = vec4(BIG)
         nhi = vec4(-BIG)
@@ -82,36 +79,29 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                 extent = chi[axis] - clo[axis]
                 if extent > 0.0:
                     scales[axis] = float(BINS) / extent
-            # A bin's box is set by its first primitive and read only when it holds one
-            # (its count), so no bin is initialised; the sweeps step over empty bins (a
-            # split at an empty bin has its neighbour's sets, cost and tie order).
+            # A bin's box corners are rows, set to the empty box, then widened by one
+            # vector min and max per primitive (the time axis, unbinned with
+            # ``uniform_t``, has no bins); the sweeps step over empty bins (a split at an
+            # empty bin has its neighbour's sets, cost and tie order).
             count = bins4_i()
-            box = bins4_box()
+            box_lo = bins4_box()
+            box_hi = bins4_box()
+            for b in range(AXES * BINS):
+                box_lo[b] = vec4(BIG)
+                box_hi[b] = vec4(-BIG)
             for k in range(s0, s1):
                 cp = centre[k]
                 lo = plo[k]
                 hi = phi[k]
-                for axis in range(4):
+                for axis in range(T0, 4):
                     if scales[axis] > 0.0:
-                        b = axis * BINS + bin_of(cp[axis], clo[axis], scales[axis])
-                        held = count[b]
-                        count[b] = held + 1
-                        if held == 0:
-                            for c in range(T0, 4):
-                                box[b * 8 + c] = lo[c]
-                                box[b * 8 + 4 + c] = hi[c]
-                        else:
-                            for c in range(T0, 4):
-                                box[b * 8 + c] = wp.min(box[b * 8 + c], lo[c])
-                                box[b * 8 + 4 + c] = wp.max(box[b * 8 + 4 + c], hi[c])
-            if wp.static(T0 == 1):
-                # Every primitive has the node's time extent: so has every bin holding one.
-                for b in range(4 * BINS):
-                    box[b * 8] = nlo[0]
-                    box[b * 8 + 4] = nhi[0]
-            for axis in range(4):
+                        b = (axis - T0) * BINS + bin_of(cp[axis], clo[axis], scales[axis])
+                        count[b] = count[b] + 1
+                        box_lo[b] = wp.min(box_lo[b], lo)
+                        box_hi[b] = wp.max(box_hi[b], hi)
+            for axis in range(T0, 4):
                 if scales[axis] > 0.0:
-                    o = axis * BINS
+                    o = (axis - T0) * BINS
                     # Sweep from the right: area and count of bins b..BINS-1.
                     right_area = bins_f()
                     right_count = bins_i()
@@ -121,9 +111,8 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                     r_area = float(0.0)
                     for j in range(BINS - 1, 0, -1):
                         if count[o + j] > 0:
-                            q = (o + j) * 8
-                            rlo = wp.min(rlo, vec4(box[q + 0], box[q + 1], box[q + 2], box[q + 3]))
-                            rhi = wp.max(rhi, vec4(box[q + 4], box[q + 5], box[q + 6], box[q + 7]))
+                            rlo = wp.min(rlo, box_lo[o + j])
+                            rhi = wp.max(rhi, box_hi[o + j])
                             rn = rn + count[o + j]
                             r_area = area4(rlo, rhi)
                         right_area[j] = r_area
@@ -133,9 +122,8 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                     ln = int(0)
                     for j in range(BINS - 1):
                         if count[o + j] > 0:
-                            q = (o + j) * 8
-                            llo = wp.min(llo, vec4(box[q + 0], box[q + 1], box[q + 2], box[q + 3]))
-                            lhi = wp.max(lhi, vec4(box[q + 4], box[q + 5], box[q + 6], box[q + 7]))
+                            llo = wp.min(llo, box_lo[o + j])
+                            lhi = wp.max(lhi, box_hi[o + j])
                             ln = ln + count[o + j]
                             rn_j = right_count[j + 1]
                             if rn_j > 0:
@@ -147,7 +135,7 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                                     best_axis = axis
                                     best_bin = j
             if n <= max_leaf and cost_intersect * float(n) <= best_cost:
-                return  # a leaf is cheaper
+                return -1  # a leaf is cheaper
         mid = s0 + n / 2
         if best_axis >= 0:
             scale = float(BINS) / (chi[best_axis] - clo[best_axis])
@@ -172,9 +160,73 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                     hi_i -= 1
             if lo_i > s0 and lo_i < s1:
                 mid = lo_i
-        out_mid[i] = mid
+        return mid
 
-    @wp.kernel(enable_backward=False, module=sah_split.module)
+    stack_i = wp.types.vector(4 * STACK, wp.int32)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def sah_tree(
+        centre: wp.array(dtype=vec4),
+        plo: wp.array(dtype=vec4),
+        phi: wp.array(dtype=vec4),
+        order: wp.array(dtype=wp.int32),
+        root: wp.array(dtype=wp.int32),
+        root_start: wp.array(dtype=wp.int32),
+        root_end: wp.array(dtype=wp.int32),
+        root_depth: wp.array(dtype=wp.int32),
+        base: wp.array(dtype=wp.int32),
+        stop_depth: int,
+        node_first: wp.array(dtype=wp.int32),
+        node_count: wp.array(dtype=wp.int32),
+        node_depth: wp.array(dtype=wp.int32),
+        used: wp.array(dtype=wp.int32),
+    ):
+        """Thread r builds the subtree under node slot ``root[r]`` over the range
+        [root_start, root_end) at depth ``root_depth``, depth first: a split node's two
+        children take the next two free slots from ``base[r]`` on (so they are adjacent
+        and after their parent), and the left one is built first. A node at depth
+        ``stop_depth`` is left open: count minus its primitive count, first its start.
+        ``used[r]``: the slots the thread took from ``base[r]``."""
+        r = wp.tid()
+        st = stack_i()
+        st[0] = root[r]
+        st[1] = root_start[r]
+        st[2] = root_end[r]
+        st[3] = root_depth[r]
+        sp = int(1)
+        free = base[r]
+        while sp > 0:
+            sp -= 1
+            node = st[4 * sp]
+            s0 = st[4 * sp + 1]
+            s1 = st[4 * sp + 2]
+            d = st[4 * sp + 3]
+            node_depth[node] = d
+            if d >= stop_depth:
+                node_first[node] = s0
+                node_count[node] = s0 - s1
+            else:
+                mid = split(centre, plo, phi, order, s0, s1, wp.where(d >= SAH_FREE_DEPTH, 1, 0))
+                if mid < 0:
+                    node_first[node] = s0
+                    node_count[node] = s1 - s0
+                else:
+                    node_first[node] = free
+                    node_count[node] = 0
+                    # The right child below the left one on the stack: the left is next.
+                    st[4 * sp] = free + 1
+                    st[4 * sp + 1] = mid
+                    st[4 * sp + 2] = s1
+                    st[4 * sp + 3] = d + 1
+                    st[4 * sp + 4] = free
+                    st[4 * sp + 5] = s0
+                    st[4 * sp + 6] = mid
+                    st[4 * sp + 7] = d + 1
+                    sp += 2
+                    free += 2
+        used[r] = free - base[r]
+
+    @wp.kernel(enable_backward=False, module=sah_tree.module)
     def node_boxes(
         first: wp.array(dtype=wp.int32),
         count: wp.array(dtype=wp.int32),
@@ -203,4 +255,4 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                 lo[node] = wp.min(lo[f], lo[f + 1])
                 hi[node] = wp.max(hi[f], hi[f + 1])
 
-    return sah_split, node_boxes
+    return sah_tree, node_boxes
