@@ -29,7 +29,7 @@ from warp_st.accel.blas import BottomLevels
 from warp_st.core import tessellate
 from warp_st.kernels import get_kernels
 from warp_st.kernels.blas import make_blas_query
-from warp_st.kernels.layout import LINK_SHIFT
+from warp_st.kernels.layout import LINK_SHIFT, WIDTH
 from warp_st.rendering.warp_init import init_warp
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -403,17 +403,51 @@ def test_renumbered_shapes_keep_every_table_with_its_triangle():
     assert np.array_equal(wide.tri_material, shapes.tri_material) and np.array_equal(wide.tri_body, shapes.tri_body)
 
 
-def test_quantised_boxes_contain_the_exact_ones():
-    """A wide node's byte-quantised child boxes (``accel.blas.quantised``), decoded as the
-    traversal decodes them, origin + q step in float32 (rounded after the product and
-    after the sum, or from the exact product as a fused multiply-add: either may be
-    compiled), contain the float32 boxes they stand for: the triangles' boxes of shipped
-    shapes, four to a node, and random boxes far from the coordinates' origin relative to
-    their size (1e4 away, 1e-3 small, where a float32 ulp of the node is a large part of
-    the step) with empty slots. Exact oracle: comparisons of float32 values. (The ray
-    tests above do not see a missing margin; this one fails without it.)"""
-    from warp_st.accel.blas import quantised
+def _quantised_twin(lo16: np.ndarray, hi16: np.ndarray, empty: np.ndarray):
+    """NumPy twin of the rule of ``accel.blas.quantised_boxes``: the child boxes
+    ``lo16`` / ``hi16`` (W, 12) float32, axis-major, ``empty`` (W, 4) -> (q, frame)."""
+    lo = np.nextafter(lo16, np.float32(-np.inf))
+    hi = np.nextafter(hi16, np.float32(np.inf))
+    w = len(lo)
+    lo3 = lo.astype(np.float64).reshape(w, 3, WIDTH)
+    hi3 = hi.astype(np.float64).reshape(w, 3, WIDTH)
+    full = np.repeat(empty[:, None, :], 3, axis=1)
+    low = np.where(full, np.inf, lo3).min(axis=2)  # (W, 3)
+    high = np.where(full, -np.inf, hi3).max(axis=2)
+    margin = 4.0 * np.spacing(np.maximum(np.abs(low), np.abs(high)).astype(np.float32)).astype(np.float64) + 1.0e-30
+    origin = (low - margin).astype(np.float32)
+    origin = np.where(origin > low - margin, np.nextafter(origin, np.float32(-np.inf)), origin)
+    step64 = (high + margin - origin) / 255
+    step = step64.astype(np.float32)
+    step = np.where(step < step64, np.nextafter(step, np.float32(np.inf)), step)
+    o, st = origin.astype(np.float64)[:, :, None], step.astype(np.float64)[:, :, None]
+    q_lo = np.clip(np.floor((lo3 - margin[:, :, None] - o) / st), 0, 255)
+    q_hi = np.clip(np.ceil((hi3 + margin[:, :, None] - o) / st), 0, 255)
+    q_lo[full] = 0
+    q_hi[full] = 0
+    q = np.concatenate([q_lo.reshape(w, 12), q_hi.reshape(w, 12)], axis=1).astype(np.uint8)
+    return q, np.concatenate([origin, step], axis=1)
 
+
+def _quantised(lo: np.ndarray, hi: np.ndarray, empty: np.ndarray):
+    """``quantised_boxes`` of wide nodes whose child boxes are ``lo`` / ``hi`` (W, 12),
+    axis-major (each slot a binary node of its own)."""
+    from warp_st.accel.blas import quantised_boxes
+
+    w = len(lo)
+    node = np.zeros((w * WIDTH, 2, 4), np.float32)
+    node[:, 0, 1:] = lo.reshape(w, 3, WIDTH).transpose(0, 2, 1).reshape(-1, 3)
+    node[:, 1, 1:] = hi.reshape(w, 3, WIDTH).transpose(0, 2, 1).reshape(-1, 3)
+    slots = np.where(empty, -1, np.arange(w * WIDTH).reshape(w, WIDTH))
+    return quantised_boxes(node[:, 0], node[:, 1], slots)
+
+
+def _quantise_cases():
+    """Child boxes (lo, hi, empty), W nodes of 12 coordinates: random boxes far from the
+    coordinates' origin relative to their size (1e4 away, 1e-3 small, where a float32 ulp
+    of the node is a large part of the step; 1e-30 small, subnormal steps; exact zeros and
+    powers of two, where the float32 steps change) with empty slots, and the triangles'
+    boxes of shipped shapes, four to a node."""
     rng = np.random.default_rng(5)
     cases = []
     for offset, size in ((0.0, 1.0), (1.0e4, 1.0e-3), (-3.0e4, 5.0e-2), (0.0, 1.0e-30)):
@@ -423,6 +457,9 @@ def test_quantised_boxes_contain_the_exact_ones():
         empty = rng.uniform(size=(w, 4)) < 0.2
         empty[:, 0] = False
         cases.append((lo.reshape(w, 12), hi.reshape(w, 12), empty))
+    w = 500
+    exact = np.float32(2.0) ** rng.integers(-130, 20, (w, 12)) * rng.choice([-1, 0, 1, 0.75], (w, 12))
+    cases.append((exact.astype(np.float32), (exact + np.abs(exact)).astype(np.float32), np.zeros((w, 4), bool)))
     for name, rest, tris in _stage_shapes()[::4]:
         pts = np.asarray(rest, np.float32)
         t = np.asarray(tris, np.int64).reshape(-1, 3)
@@ -433,8 +470,18 @@ def test_quantised_boxes_contain_the_exact_ones():
             cases.append((box_lo[:n].reshape(-1, 4, 3).transpose(0, 2, 1).reshape(-1, 12),
                           box_hi[:n].reshape(-1, 4, 3).transpose(0, 2, 1).reshape(-1, 12),
                           np.zeros((n // 4, 4), bool)))
-    for lo, hi, empty in cases:
-        q, frame = quantised(lo, hi, empty)
+    return cases
+
+
+def test_quantised_boxes_contain_the_exact_ones():
+    """A wide node's byte-quantised child boxes (``accel.blas.quantised_boxes``), decoded
+    as the traversal decodes them, origin + q step in float32 (rounded after the product
+    and after the sum, or from the exact product as a fused multiply-add: either may be
+    compiled), contain the float32 boxes they stand for (``_quantise_cases``). Exact
+    oracle: comparisons of float32 values. (The ray tests above do not see a missing
+    margin; this one fails without it.)"""
+    for lo, hi, empty in _quantise_cases():
+        q, frame = _quantised(lo, hi, empty)
         origin = np.repeat(frame[:, :3], 4, axis=1)
         step = np.repeat(frame[:, 3:], 4, axis=1)
         full = np.tile(empty, (1, 3))
@@ -445,6 +492,17 @@ def test_quantised_boxes_contain_the_exact_ones():
             for decoded in (separate, fused):
                 ok = decoded <= corner if below else decoded >= corner
                 assert (ok | full).all(), (k, int((~ok & ~full).sum()))
+
+
+def test_the_quantise_kernel_is_its_numpy_twin():
+    """Law: the kernel's bytes and frames (``kernels/blas_build.quantise``: float64
+    arithmetic, and ``nextafter`` and ``spacing`` made from powers of two) are the NumPy
+    twin's of the same rule, bit for bit, on every case of ``_quantise_cases``."""
+    for lo, hi, empty in _quantise_cases():
+        q, frame = _quantised(lo, hi, empty)
+        q_twin, frame_twin = _quantised_twin(lo, hi, empty)
+        assert np.array_equal(frame, frame_twin), int((frame != frame_twin).sum())
+        assert np.array_equal(q, q_twin), int((q != q_twin).sum())
 
 
 def _distinct_shapes(count: int):

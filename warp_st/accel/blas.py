@@ -38,13 +38,13 @@ import time
 import numpy as np
 
 from warp_st.accel.bvh import build_bvh, load_builder
-from warp_st.accel.bvh_wide import collapse, wide_boxes
+from warp_st.accel.bvh_wide import collapse
 from warp_st.core.extent import column_max, column_min
 from warp_st.core.thread_pool import thread_pool
 from warp_st.kernels.layout import LINK_SHIFT, WIDTH
 from warp_st.spacetime.rigid import RigidShapes, renumbered
 
-__all__ = ["BottomLevels", "bottom_levels", "leaf_order", "shape_tree"]
+__all__ = ["BottomLevels", "bottom_levels", "leaf_order", "quantised_boxes", "shape_tree"]
 
 #: Ranges of up to 4 triangles always become leaves: two levels fewer to build (a third
 #: of the build), queries as fast within the spread of single runs.
@@ -53,62 +53,56 @@ SHAPE_LEAF = 4
 
 def shape_tree(points: np.ndarray, triangles: np.ndarray, threads: int = 2):
     """The 4-wide tree of one shape: (q (W, 24) uint8 and frame (W, 6) float32, the
-    quantised child boxes (``quantised``), link (W, 4) local, order (T,) the triangles in
-    leaf order). ``points`` float32 (P, 3); ``threads``: ``bvh.build_bvh``'s."""
-    a, b, c = (points[triangles[:, k]] for k in range(3))  # float32: the boxes are exact
+    quantised child boxes (``quantised_boxes``), link (W, 4) local, order (T,) the
+    triangles in leaf order). ``points`` float32 (P, 3); ``threads``: ``bvh.build_bvh``'s."""
+    import warp as wp
+
+    from warp_st.kernels.blas_build import tri_boxes
+
     n = len(triangles)
-    # Pairwise, not a reduction over an axis of three (ten times slower in NumPy).
-    prim_lo = np.zeros((n, 4), np.float32)
-    prim_hi = np.empty((n, 4), np.float32)
-    np.minimum(np.minimum(a, b, out=prim_lo[:, 1:]), c, out=prim_lo[:, 1:])
-    np.maximum(np.maximum(a, b, out=prim_hi[:, 1:]), c, out=prim_hi[:, 1:])
-    size = float(np.max(column_max(prim_hi[:, 1:]) - column_min(prim_lo[:, 1:]))) if n else 1.0
-    prim_hi[:, 0] = 1.0e3 * max(size, 1.0e-30)
-    bvh = build_bvh(prim_lo, prim_hi, "tri", leaf_size=SHAPE_LEAF, uniform_t=True, threads=threads,
-                    float32_boxes=True)
+    plo, phi, centre = (wp.empty(n, dtype=wp.vec4, device="cpu") for _ in range(3))
+    wp.launch(tri_boxes, dim=n, inputs=[wp.array(points, dtype=wp.vec3, device="cpu"),
+                                        wp.array(triangles, dtype=wp.vec3i, device="cpu"), plo, phi, centre],
+              device="cpu")
+    lo, hi, mid = plo.numpy(), phi.numpy(), centre.numpy()  # views
+    size = float(np.max(column_max(hi[:, 1:]) - column_min(lo[:, 1:]))) if n else 1.0
+    hi[:, 0] = 1.0e3 * max(size, 1.0e-30)
+    mid[:, 0] = 0.5 * hi[:, 0]  # the float32 (lo + hi) / 2 of the other axes
+    bvh = build_bvh(plo, phi, "tri", leaf_size=SHAPE_LEAF, uniform_t=True, threads=threads, float32_boxes=True,
+                    centre=centre)
     wide = collapse(bvh)
-    lo16, hi16 = wide_boxes(wide, bvh.node_lo[:, 1:], bvh.node_hi[:, 1:])
-    # One float32 step outward: a ray along a box's face with a zero direction component
-    # (an axis-aligned camera's centre column) would get the exit (hi - o) / d = 0 x 1e30
-    # = 0 there, not +inf, and miss the box; widened, the face lies strictly outside
-    # every ray that meets the triangles.
-    lo = np.nextafter(lo16, np.float32(-np.inf))
-    hi = np.nextafter(hi16, np.float32(np.inf))
-    q, frame = quantised(lo, hi, wide.slot_node < 0)
+    q, frame = quantised_boxes(bvh.node_lo, bvh.node_hi, wide.slot_node)
     return q, frame, wide.link, bvh.order
 
 
-#: Quantisation steps of a child box coordinate within its wide node (one byte).
-STEPS = 255
+def quantised_boxes(node_lo: np.ndarray, node_hi: np.ndarray, slot_node: np.ndarray):
+    """Wide nodes' child boxes as one byte per coordinate in the node's frame: (q (W, 24)
+    uint8, the children's lower corners then upper ones, axis-major; frame (W, 6)
+    float32, the origin and step per axis), from the binary nodes' float32 boxes
+    ``node_lo`` / ``node_hi`` (M, 4), (t, x, y, z), the time unused, and the binary node
+    in each slot ``slot_node`` (W, 4) (-1: empty; its q is 0, and the traversal tests
+    its link, -1). The rule (``kernels/blas_build.quantise``, float64):
 
+    - each corner first moves one float32 step outward: a ray along a box's face with a
+      zero direction component (an axis-aligned camera's centre column) would get the
+      exit (hi - o) / d = 0 x 1e30 = 0 there, not +inf, and miss the box; widened, the
+      face lies strictly outside every ray that meets the triangles;
+    - a child's box is origin + q step (``kernels/blas.py`` decodes it in float32) and
+      contains the widened one: lower corners round down, upper ones up, past a margin of
+      4 float32 ulps of the node's coordinates (the decode's rounding is below 1.5 of
+      them)."""
+    import warp as wp
 
-def quantised(lo: np.ndarray, hi: np.ndarray, empty: np.ndarray):
-    """Wide nodes' child boxes ``lo`` / ``hi`` (W, 12) float32, axis-major, as one byte
-    per coordinate in the node's frame: (q (W, 24) uint8, the children's lower corners
-    then upper ones; frame (W, 6) float32, the origin and step per axis). A child's box
-    is origin + q step (``kernels/blas.py`` decodes it in float32) and contains the given
-    one: lower corners round down, upper ones up, past a margin of 4 float32 ulps of the
-    node's coordinates (the decode's rounding is below 1.5 of them). ``empty`` (W, 4):
-    slots without a child (their q is 0; the traversal tests their link, -1)."""
-    w = len(lo)
-    lo3 = lo.astype(np.float64).reshape(w, 3, WIDTH)
-    hi3 = hi.astype(np.float64).reshape(w, 3, WIDTH)
-    full = np.repeat(empty[:, None, :], 3, axis=1)
-    low = np.where(full, np.inf, lo3).min(axis=2)  # (W, 3)
-    high = np.where(full, -np.inf, hi3).max(axis=2)
-    margin = 4.0 * np.spacing(np.maximum(np.abs(low), np.abs(high)).astype(np.float32)).astype(np.float64) + 1.0e-30
-    origin = (low - margin).astype(np.float32)
-    origin = np.where(origin > low - margin, np.nextafter(origin, np.float32(-np.inf)), origin)
-    step64 = (high + margin - origin) / STEPS
-    step = step64.astype(np.float32)
-    step = np.where(step < step64, np.nextafter(step, np.float32(np.inf)), step)
-    o, st = origin.astype(np.float64)[:, :, None], step.astype(np.float64)[:, :, None]
-    q_lo = np.clip(np.floor((lo3 - margin[:, :, None] - o) / st), 0, STEPS)
-    q_hi = np.clip(np.ceil((hi3 + margin[:, :, None] - o) / st), 0, STEPS)
-    q_lo[full] = 0
-    q_hi[full] = 0
-    q = np.concatenate([q_lo.reshape(w, 12), q_hi.reshape(w, 12)], axis=1).astype(np.uint8)
-    return q, np.concatenate([origin, step], axis=1)
+    from warp_st.kernels.blas_build import quantise
+
+    w = len(slot_node)
+    q = wp.empty((w, 6 * WIDTH), dtype=wp.uint8, device="cpu")
+    frame = wp.empty((w, 6), dtype=wp.float32, device="cpu")
+    wp.launch(quantise, dim=w, inputs=[wp.array(np.asarray(node_lo, np.float32), dtype=wp.vec4, device="cpu"),
+                                       wp.array(np.asarray(node_hi, np.float32), dtype=wp.vec4, device="cpu"),
+                                       wp.array(np.asarray(slot_node, np.int32), dtype=wp.int32, device="cpu"), q,
+                                       frame], device="cpu")
+    return q.numpy(), frame.numpy()
 
 
 class BottomLevels:
@@ -176,8 +170,8 @@ class BottomLevels:
 def _build_trees(shapes_in: list, built: list) -> dict:
     """``shape_tree`` of each shape in ``built`` (indices into ``shapes_in``, (points,
     triangles) pairs), by shape index, on a thread pool of one thread per core
-    (``core.thread_pool``), largest first. The split kernel is made and loaded first, on
-    the calling thread (``bvh.load_builder``). Each tree depends on its shape alone, so
+    (``core.thread_pool``), largest first. The kernels are made and loaded first, on the
+    calling thread (``bvh.load_builder``, ``kernels/blas_build``). Each tree depends on its shape alone, so
     the trees are the serial build's whatever the thread count. A shape builds its
     subtrees on two threads of its own only when it holds more than its share of a core's
     triangles (the other shapes cannot keep the cores busy beside it): with every core
@@ -187,6 +181,11 @@ def _build_trees(shapes_in: list, built: list) -> dict:
     if min(len(built), cores) <= 1:
         return {s: shape_tree(*shapes_in[s]) for s in built}
     load_builder("tri", leaf_size=SHAPE_LEAF, uniform_t=True)  # the same kernel as shape_tree's builds
+    import warp as wp
+
+    from warp_st.kernels import blas_build
+
+    wp.load_module(blas_build, device="cpu")  # shape_tree's other kernels
     order = sorted(built, key=lambda s: -len(shapes_in[s][1]))  # the small ones fill in at the end
     total = sum(len(shapes_in[s][1]) for s in built)
 

@@ -69,7 +69,7 @@ class FlatBVH:
 
 
 def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", *, leaf_size: int = LEAF_SIZE,
-              uniform_t: bool = False, threads: int = 2, float32_boxes: bool = False) -> FlatBVH:
+              uniform_t: bool = False, threads: int = 2, float32_boxes: bool = False, centre=None) -> FlatBVH:
     """Build the BVH over primitive boxes ``prim_lo``/``prim_hi`` of shape (N, 4);
     ``primitive`` picks the SAH intersection cost; ranges of ``leaf_size`` primitives or
     fewer always become leaves (larger ones when the SAH says so). ``uniform_t``: every
@@ -77,7 +77,11 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
     ``threads``: 2 builds the subtrees of a large build on two threads, 1 on the calling
     thread alone (for builds that already run side by side: the same tree).
     ``float32_boxes``: the boxes are float32 numbers (a bottom level's triangles), so are
-    the node boxes, reduced in a Warp kernel (the same values, without float64 copies)."""
+    the node boxes, reduced in a Warp kernel (the same values, without float64 copies).
+    ``centre``: the boxes' float32 centres, a Warp vec4 array on the CPU, with ``prim_lo``
+    / ``prim_hi`` Warp arrays too (a bottom level's, made by
+    ``kernels/blas_build.tri_boxes``; with ``float32_boxes``); the arrays are reordered
+    into leaf order in place."""
     start_clock = time.perf_counter()
     n = len(prim_lo)
     if n == 0:
@@ -86,7 +90,14 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
         # anything else; bvh_wide.collapse gives one empty wide node).
         far = np.array([[np.inf, 0.0, 0.0, 0.0]])
         return FlatBVH(far, far.copy(), np.zeros(1, np.int32), np.zeros(1, np.int32), np.zeros(0, np.int64), 0, 0.0)
-    first, count, node_depth, order, depth, plo, phi = _sah_topology(prim_lo, prim_hi, SAH_COST_INTERSECT[primitive],
+    import warp as wp
+
+    if centre is None:
+        plo, phi = (wp.array(b.astype(np.float32), dtype=wp.vec4, device="cpu") for b in (prim_lo, prim_hi))
+        centre = wp.array((0.5 * (prim_lo + prim_hi)).astype(np.float32), dtype=wp.vec4, device="cpu")
+    else:
+        plo, phi = prim_lo, prim_hi
+    first, count, node_depth, order, depth, plo, phi = _sah_topology(plo, phi, centre, SAH_COST_INTERSECT[primitive],
                                                                      leaf_size, uniform_t, threads)
     if float32_boxes:
         lo, hi = _bounds32(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t)[1], first, count, plo, phi)
@@ -113,7 +124,7 @@ def load_builder(primitive: str = "tet", *, leaf_size: int = LEAF_SIZE, uniform_
     wp.load_module(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t)[0].module, device="cpu")
 
 
-def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, uniform_t: bool, threads: int):
+def _sah_topology(plo, phi, centre, cost_intersect: float, leaf_size: int, uniform_t: bool, threads: int):
     """Node ranges by binned SAH (``kernels/bvh_build.sah_tree``): the node slots' first
     child or primitive, count and depth (children after their parent, side by side, the
     left subtree before the right one), the order, the tree's depth and the primitive
@@ -123,10 +134,7 @@ def _sah_topology(prim_lo, prim_hi, cost_intersect: float, leaf_size: int, unifo
     import warp as wp
 
     kernel = _sah_kernel(cost_intersect, leaf_size, uniform_t)[0]
-    n = len(prim_lo)
-    plo = wp.array(prim_lo.astype(np.float32), dtype=wp.vec4, device="cpu")
-    phi = wp.array(prim_hi.astype(np.float32), dtype=wp.vec4, device="cpu")
-    centre = wp.array((0.5 * (prim_lo + prim_hi)).astype(np.float32), dtype=wp.vec4, device="cpu")
+    n = len(plo)
     order_w = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32, device="cpu")
     split = n >= SPLIT_MIN
     cap = 2 * n + (2 << TOP_DEPTH if split else 0)

@@ -80,14 +80,12 @@ def _links(slots, first, count, wide_id) -> np.ndarray:
 
 
 def wide_boxes(wide: WideBVH, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Slot boxes (W, 4 D) axis-major from binary node boxes ``lo``/``hi`` (M, D): D = 4,
-    (t, x, y, z), with empty slots at t = +inf; or D = 3, (x, y, z), a bottom level's,
-    with empty slots at 0 (their links say they are empty)."""
-    axes = lo.shape[1]
-    empty = np.array([np.inf, 0.0, 0.0, 0.0][4 - axes:], dtype=lo.dtype)
+    """Slot boxes (W, 16) axis-major from binary node boxes ``lo``/``hi`` (M, 4), (t, x,
+    y, z), with empty slots at t = +inf."""
+    empty = np.array([np.inf, 0.0, 0.0, 0.0], dtype=lo.dtype)
     s = np.maximum(wide.slot_node, 0)
     out = []
     for corner in (lo, hi):
-        box = np.where((wide.slot_node >= 0)[..., None], corner[s], empty)  # (W, 4 slots, D axes)
-        out.append(np.ascontiguousarray(box.transpose(0, 2, 1).reshape(-1, axes * WIDTH)))
+        box = np.where((wide.slot_node >= 0)[..., None], corner[s], empty)  # (W, 4 slots, 4 axes)
+        out.append(np.ascontiguousarray(box.transpose(0, 2, 1).reshape(-1, 4 * WIDTH)))
     return out[0], out[1]
