@@ -107,3 +107,26 @@ def _ranges_end(bvh, j):
     while bvh.node_count[j] == 0:
         j = bvh.node_first[j] + 1
     return int(bvh.node_first[j] + bvh.node_count[j])
+
+
+@pytest.mark.parametrize("float32_boxes", [False, True])
+def test_node_boxes_are_their_primitives_bounds(float32_boxes):
+    """Law: every node's box (``kernels/bvh_build.node_boxes64`` in float64,
+    ``node_boxes`` in float32) is the NumPy min and max of its primitives' boxes, bit for
+    bit (min and max round nothing). A build large enough for two launches."""
+    rng = np.random.default_rng(17)
+    n = SPLIT_MIN + 1000
+    c = rng.random((n, 4)) * [10.0, 5.0, 5.0, 5.0]
+    half = rng.random((n, 4)) * 0.2
+    lo, hi = c - half, c + half
+    if float32_boxes:
+        lo[:, 0], hi[:, 0] = 0.0, 1.0e3
+        lo, hi = lo.astype(np.float32), hi.astype(np.float32)
+    bvh = build_bvh(lo, hi, "tri", leaf_size=4, uniform_t=float32_boxes, float32_boxes=float32_boxes)
+    assert bvh.node_lo.dtype == (np.float32 if float32_boxes else np.float64)
+    ranges = _ranges(bvh)
+    assert len(ranges) == bvh.node_count_total
+    for j, (s0, s1, _children) in ranges.items():
+        prims = bvh.order[s0:s1]
+        assert np.array_equal(bvh.node_lo[j], lo[prims].min(0)), j
+        assert np.array_equal(bvh.node_hi[j], hi[prims].max(0)), j

@@ -97,12 +97,13 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
         centre = wp.array((0.5 * (prim_lo + prim_hi)).astype(np.float32), dtype=wp.vec4, device="cpu")
     else:
         plo, phi = prim_lo, prim_hi
-    first, count, node_depth, order, depth, plo, phi = _sah_topology(plo, phi, centre, SAH_COST_INTERSECT[primitive],
-                                                                     leaf_size, uniform_t, threads)
+    first, count, order, depth, plo, phi = _sah_topology(plo, phi, centre, SAH_COST_INTERSECT[primitive], leaf_size,
+                                                         uniform_t, threads)
     if float32_boxes:
         lo, hi = _bounds32(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t)[1], first, count, plo, phi)
     else:
-        lo, hi = _bounds(prim_lo, prim_hi, first, count, node_depth, order)
+        lo, hi = _bounds64(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t)[2], first, count, order,
+                           prim_lo, prim_hi)
     return FlatBVH(
         node_lo=lo,
         node_hi=hi,
@@ -126,9 +127,9 @@ def load_builder(primitive: str = "tet", *, leaf_size: int = LEAF_SIZE, uniform_
 
 def _sah_topology(plo, phi, centre, cost_intersect: float, leaf_size: int, uniform_t: bool, threads: int):
     """Node ranges by binned SAH (``kernels/bvh_build.sah_tree``): the node slots' first
-    child or primitive, count and depth (children after their parent, side by side, the
-    left subtree before the right one), the order, the tree's depth and the primitive
-    boxes in leaf order. A build of ``SPLIT_MIN`` primitives or more makes its top
+    child or primitive and count (children after their parent, side by side, the left
+    subtree before the right one), the order, the tree's depth and the primitive boxes
+    in leaf order. A build of ``SPLIT_MIN`` primitives or more makes its top
     ``TOP_DEPTH`` levels first, then the subtrees under them, on ``threads`` threads (up
     to 2): the slots are the same for any thread count."""
     import warp as wp
@@ -161,12 +162,13 @@ def _sah_topology(plo, phi, centre, cost_intersect: float, leaf_size: int, unifo
         bases = top + 2 * starts  # a subtree of m primitives takes at most 2 m - 2 slots
         args = (held, starts, ends, d[held], bases, MAX_DEPTH + 1)
         if threads >= 2 and len(held) > 1:
-            # Two halves of about equal primitive counts, each one launch on a thread.
-            work = np.cumsum(ends - starts)
-            cut = min(max(int(np.searchsorted(work, work[-1] / 2)), 1), len(held) - 1)
-            parts = list(thread_pool(2, "warp-st-bvh").map(lambda p: grow(*(a[p] for a in args[:5]), args[5]),
-                                                            [slice(0, cut), slice(cut, None)]))
-            used = np.concatenate(parts)
+            # One launch per subtree, largest first, taken by the two threads as they
+            # come free.
+            big = np.argsort(starts - ends, kind="stable")
+            used = np.empty(len(held), np.int64)
+            done = thread_pool(2, "warp-st-bvh").map(lambda k: grow(*(a[k:k + 1] for a in args[:5]), args[5]), big)
+            for k, u in zip(big, done):
+                used[k] = u[0]
         else:
             used = grow(*args)
         # Drop the slots the subtrees left free.
@@ -177,8 +179,7 @@ def _sah_topology(plo, phi, centre, cost_intersect: float, leaf_size: int, unifo
         slot = np.cumsum(keep) - 1
         f, c, d = f[keep], c[keep], d[keep]
         f = np.where(c == 0, slot[f], f)
-    return (f.astype(np.int64), c.astype(np.int64), d.astype(np.int64), order_w.numpy().astype(np.int64),
-            int(d.max()) + 1, plo, phi)
+    return f.astype(np.int64), c.astype(np.int64), order_w.numpy().astype(np.int64), int(d.max()) + 1, plo, phi
 
 
 _SAH_KERNELS: dict = {}
@@ -209,23 +210,19 @@ def _bounds32(node_boxes, first, count, plo, phi):
     return lo.numpy(), hi.numpy()
 
 
-def _bounds(prim_lo, prim_hi, first, count, depth, order):
-    """Node boxes bottom-up: leaves by one reduceat each, then parents level by level
-    (``depth``: each node's), deepest first."""
-    n_nodes = len(first)
-    lo = np.empty((n_nodes, 4))
-    hi = np.empty((n_nodes, 4))
-    # Leaves partition the ordered primitives, so one reduceat each.
-    leaves = np.nonzero(count > 0)[0]
-    leaves = leaves[np.argsort(first[leaves])]
-    plo, phi = prim_lo[order], prim_hi[order]
-    lo[leaves] = np.minimum.reduceat(plo, first[leaves], axis=0)
-    hi[leaves] = np.maximum.reduceat(phi, first[leaves], axis=0)
-    inner = np.nonzero(count == 0)[0]
-    inner = inner[np.argsort(-depth[inner], kind="stable")]
-    cuts = np.nonzero(np.diff(depth[inner]))[0] + 1
-    for node in np.split(inner, cuts):  # children are always on a deeper level
-        c = first[node]
-        lo[node] = np.minimum(lo[c], lo[c + 1])
-        hi[node] = np.maximum(hi[c], hi[c + 1])
-    return lo, hi
+def _bounds64(node_boxes64, first, count, order, prim_lo, prim_hi):
+    """Node boxes in float64 by ``node_boxes64`` (``kernels.bvh_build``) from the
+    primitives' boxes ``prim_lo``/``prim_hi`` in their input order (the leaves' slots
+    through ``order``): min and max round nothing, so these are NumPy's reductions."""
+    import warp as wp
+
+    def arr(a, dtype):
+        return wp.array(np.ascontiguousarray(a, dtype=np.float64 if dtype is wp.vec4d else np.int32), dtype=dtype,
+                        device="cpu")
+
+    m = len(first)
+    lo = wp.empty(m, dtype=wp.vec4d, device="cpu")
+    hi = wp.empty(m, dtype=wp.vec4d, device="cpu")
+    wp.launch(node_boxes64, dim=1, inputs=[arr(first, wp.int32), arr(count, wp.int32), arr(order, wp.int32),
+                                           arr(prim_lo, wp.vec4d), arr(prim_hi, wp.vec4d), lo, hi], device="cpu")
+    return lo.numpy(), hi.numpy()

@@ -27,7 +27,8 @@ STACK = MAX_DEPTH + 2
 
 
 def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_intersect: float, uniform_t: bool = False):
-    """The split kernel and the node-box kernel, in one module (loaded together);
+    """The tree kernel and the node-box kernels (float32 boxes in leaf order, float64
+    ones through the order), in one module (loaded together);
     ``uniform_t``: every primitive has the same time extent (a 3D build,
     ``accel/blas.py``), which the bins then take from the node instead of reducing it
     per primitive (the same trees)."""
@@ -255,4 +256,33 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                 lo[node] = wp.min(lo[f], lo[f + 1])
                 hi[node] = wp.max(hi[f], hi[f + 1])
 
-    return sah_tree, node_boxes
+    @wp.kernel(enable_backward=False, module=sah_tree.module)
+    def node_boxes64(
+        first: wp.array(dtype=wp.int32),
+        count: wp.array(dtype=wp.int32),
+        order: wp.array(dtype=wp.int32),
+        plo: wp.array(dtype=wp.vec4d),
+        phi: wp.array(dtype=wp.vec4d),
+        lo: wp.array(dtype=wp.vec4d),
+        hi: wp.array(dtype=wp.vec4d),
+    ):
+        """``node_boxes`` of float64 boxes in their input order (leaf slot k holds
+        primitive ``order[k]``)."""
+        m = first.shape[0]
+        for j in range(m):
+            node = m - 1 - j
+            f = first[node]
+            c = count[node]
+            if c > 0:
+                a = plo[order[f]]
+                b = phi[order[f]]
+                for k in range(f + 1, f + c):
+                    a = wp.min(a, plo[order[k]])
+                    b = wp.max(b, phi[order[k]])
+                lo[node] = a
+                hi[node] = b
+            else:
+                lo[node] = wp.min(lo[f], lo[f + 1])
+                hi[node] = wp.max(hi[f], hi[f + 1])
+
+    return sah_tree, node_boxes, node_boxes64
