@@ -133,7 +133,8 @@ def _class_scene():
     overlapping or touching (so merged: their box is no larger than theirs together)
     but one: at 0.6c coupled, two instances of one cube (copied into one shape about the
     first one's pivot) and two other bodies; two decoupled at 2c with a lifetime; two at
-    rest; two small cubes far apart at 0.5c (kept apart); one body alone at 0.9c. Each
+    rest; two small cubes far apart at 0.5c (kept apart); one body alone at 0.9c; at 0.4c
+    two checker meshes merged without the wall behind them. Each
     class's bodies are consecutive, so the merged shapes number their triangles as the
     extrusion does."""
     from tracing_helpers import sphere_body
@@ -150,13 +151,40 @@ def _class_scene():
         cube_body("/E0", (-3, 2, -8), 0.5, (0, 0, 0.5)),
         cube_body("/E1", (3, 2, -8), 0.6, (0, 0, 0.5)),
         cube_body("/D", (1, -2, -3), 0.8, (0, 0.9, 0), lifetime=(-15.0, -3.0)),
+        # A stage at 0.4c: two interleaved checker meshes, flat (merged: one box for
+        # both) and a wall behind them (kept apart: with it the box would grow).
+        _squares_body("/G0", [(x, -3.0, z) for x in range(-2, 2) for z in range(-8, -4) if (x + z) % 2 == 0]),
+        _squares_body("/G1", [(x, -3.0, z) for x in range(-2, 2) for z in range(-8, -4) if (x + z) % 2]),
+        _squares_body("/G2", [(x, y, -10.0) for x in range(-2, 2) for y in range(-3, 1)], normal_axis=2),
     )
+
+
+def _squares_body(path, corners, normal_axis=1, velocity=(0, 0.4, 0)):
+    """A body of unit squares with these lower corners, in the plane normal to axis
+    ``normal_axis`` (1: y, 2: z)."""
+    from warp_st.core.scene import Body, Material, Surface
+
+    u, v = [a for a in (0, 1, 2) if a != normal_axis]
+    pts, tris = [], []
+    for c in corners:
+        base = len(pts)
+        for du, dv in ((0, 0), (1, 0), (1, 1), (0, 1)):
+            p = np.array(c, float)
+            p[u] += du
+            p[v] += dv
+            pts.append(p)
+        tris += [(base, base + 1, base + 2), (base, base + 2, base + 3)]
+    pts = np.array(pts)
+    origin = pts.mean(axis=0)
+    return Body(path, (Surface(path, pts, np.array(tris), Material()),), origin, np.asarray(velocity, float), 0.0,
+                (-np.inf, np.inf), False)
 
 
 @pytest.mark.parametrize("finite", [True, False])
 def test_merged_classes_hit_as_separate_bodies_and_the_extrusion(finite, monkeypatch):
     """Bodies of one motion class merged into one shape (one bottom level, one set of
-    segments), instances of one shape copied into another, a spread class kept apart: the
+    segments), instances of one shape copied into another, a spread class kept apart, a
+    class merged in part (the pair whose box does not grow): the
     same closest triangles as the same bodies traced one by one (merging off), ray for
     ray, at the same s to float32 rounding; and the float64 prism oracle's hits, s within
     COND_TOL. One ray in 20,000 here misses a sphere's silhouette in float32 on both
@@ -166,11 +194,11 @@ def test_merged_classes_hit_as_separate_bodies_and_the_extrusion(finite, monkeyp
     scene = _class_scene()
     windows = _windows(scene)
     merged = RigidDatabase(scene, windows, origin=(-3, 0, 0, 0))
-    assert merged.shapes.body_holder.tolist() == [0, 0, 2, 2, 4, 4, 6, 6, 8, 9, 10], "merged classes"
-    assert len(merged.shapes.shape_rest) == 7
+    assert merged.shapes.body_holder.tolist() == [0, 0, 2, 2, 4, 4, 6, 6, 8, 9, 10, 11, 11, 13], "merged classes"
+    assert len(merged.shapes.shape_rest) == 9
     monkeypatch.setattr(rigid_module, "merge_plan", lambda bodies, *a: np.arange(len(bodies), dtype=np.int32))
     separate = RigidDatabase(scene, windows, origin=(-3, 0, 0, 0))
-    assert len(separate.shapes.shape_rest) == 10  # the two instances share one
+    assert len(separate.shapes.shape_rest) == 13  # the two instances share one
     oracle = Database(scene, windows, precision="float64", primitive="prism", origin=(-3, 0, 0, 0))
     origins, dirs = _random_rays(np.random.default_rng(33 + finite), 20000, oracle, finite)
     o_idx, o_s, _ = oracle.cast(origins, dirs, finite=finite, brute=True)

@@ -77,17 +77,33 @@ def merge_plan(bodies: tuple, found: list, keys: list, uses: dict, quadric: list
                 taken = set(near)
                 left = [i for i in left if i not in taken]
         for cluster in clusters:
-            if len(cluster) > 1 and _no_larger(cluster, bodies, found):
-                holder[cluster] = cluster[0]
+            for group in _no_larger_groups(cluster, bodies, found):
+                holder[group] = group[0]
     return holder
 
 
-def _no_larger(members: list, bodies: tuple, found: list) -> bool:
-    """True when the box of all ``members`` (lab boxes at the first one's reference time)
-    has no more surface area than their boxes together: a ray then enters the merged
-    shape's box no more often than it enters the members' boxes, each a bottom-level
-    query of its own (the SAH's measure; spread bodies keep their own boxes: four cubes
-    round a sphere, merged, cost every ray that hits the sphere one more query)."""
+#: Clusters of more members than this are merged whole or not at all (the pairwise
+#: merging below compares every pair at each step).
+PAIRWISE_MEMBERS = 64
+
+
+def _area(e):
+    return 2.0 * (e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 2] * e[..., 0])
+
+
+def _no_larger_groups(members: list, bodies: tuple, found: list) -> list:
+    """The groups of ``members`` (indices, ascending) to merge, each of two or more: all
+    of them when the box of all (lab boxes at the first one's reference time) has no more
+    surface area than their boxes together, as a ray then enters the merged shape's box
+    no more often than it enters the members' boxes, each a bottom-level query of its own
+    (the SAH's measure; spread bodies keep their own boxes: four cubes round a sphere,
+    merged, cost every ray that hits the sphere one more query). Otherwise (clusters of
+    up to ``PAIRWISE_MEMBERS``) the pairs of groups for which the same holds are merged,
+    the one whose box grows least first (its merged area against the two areas), until
+    no pair is left: a stage's two interleaved checker meshes become one shape though the
+    mirror behind them keeps its own."""
+    if len(members) < 2:
+        return []
     h = bodies[members[0]]
     lo, hi = [], []
     for i in members:
@@ -95,11 +111,24 @@ def _no_larger(members: list, bodies: tuple, found: list) -> bool:
         lo.append(column_min(found[i].local) + moved)
         hi.append(column_max(found[i].local) + moved)
     lo, hi = np.array(lo), np.array(hi)
-
-    def area(e):
-        return 2.0 * (e[..., 0] * e[..., 1] + e[..., 1] * e[..., 2] + e[..., 2] * e[..., 0])
-
-    return float(area(hi.max(axis=0) - lo.min(axis=0))) <= float(area(hi - lo).sum())
+    area = _area(hi - lo)
+    if float(_area(hi.max(axis=0) - lo.min(axis=0))) <= float(area.sum()):
+        return [list(members)]
+    if len(members) > PAIRWISE_MEMBERS:
+        return []
+    groups = [[i] for i in members]
+    while len(groups) > 1:
+        merged = _area(np.maximum(hi[:, None], hi[None]) - np.minimum(lo[:, None], lo[None]))  # (G, G)
+        ratio = merged / np.maximum(area[:, None] + area[None], 1e-300)
+        ratio[np.tri(len(groups), dtype=bool)] = np.inf  # pairs a < b only
+        a, b = np.unravel_index(int(np.argmin(ratio)), ratio.shape)
+        if not ratio[a, b] <= 1.0:
+            break
+        groups[a] = sorted(groups[a] + groups[b])
+        lo[a], hi[a], area[a] = np.minimum(lo[a], lo[b]), np.maximum(hi[a], hi[b]), merged[a, b]
+        keep = np.arange(len(groups)) != b
+        groups, lo, hi, area = [g for g, k in zip(groups, keep) if k], lo[keep], hi[keep], area[keep]
+    return [g for g in groups if len(g) > 1]
 
 
 def pivot_offset(body, other) -> np.ndarray:
