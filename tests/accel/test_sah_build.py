@@ -16,7 +16,8 @@ RTOL = 1.0e-4
 
 def _area4(lo, hi):
     e = np.maximum(hi - lo, 0.0)
-    return e[..., 0] * (e[..., 1] * e[..., 2] + e[..., 2] * e[..., 3] + e[..., 3] * e[..., 1]) + e[..., 1] * e[..., 2] * e[..., 3]
+    t, x, y, z = e[..., 0], e[..., 1], e[..., 2], e[..., 3]
+    return t * (x * y + y * z + z * x) + x * y * z
 
 
 def _cost(lo, hi, left, c_i, parent_area):
@@ -63,8 +64,8 @@ def _ranges(bvh):
     return ranges
 
 
-@pytest.mark.parametrize("primitive, leaf_size, uniform_t, n", [("tri", 4, True, 3000), ("prism", 4, False, 2000),
-                                                                ("rigid", 1, False, 700), ("tri", 4, True, SPLIT_MIN + 904)])
+@pytest.mark.parametrize("primitive, leaf_size, uniform_t, n", [
+    ("tri", 4, True, 3000), ("prism", 4, False, 2000), ("rigid", 1, False, 700), ("tri", 4, True, SPLIT_MIN + 904)])
 def test_every_split_is_the_cheapest_bin_boundary(primitive, leaf_size, uniform_t, n):
     """Law: at every inner node the builder's partition costs what the twin's cheapest
     bin boundary costs (to RTOL), and every leaf over ``leaf_size`` primitives costs no

@@ -186,8 +186,8 @@ _SAH_KERNELS: dict = {}
 
 
 def _sah_kernel(cost_intersect: float, leaf_size: int, uniform_t: bool = False):
-    """The split and node-box kernels (one module) for one intersection cost and leaf
-    size, made once per process."""
+    """The tree kernel and the node-box kernels (one module, ``kernels/bvh_build``) for one
+    intersection cost and leaf size, made once per process."""
     from warp_st.kernels.bvh_build import make_sah_split
 
     key = (cost_intersect, leaf_size, uniform_t)

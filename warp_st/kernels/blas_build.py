@@ -110,7 +110,8 @@ def quantise(node_lo: wp.array(dtype=wp.vec4), node_hi: wp.array(dtype=wp.vec4),
                 hi[4 * axis + k] = next_up32(wp.float64(node_hi[s][1 + axis]))
                 low = wp.min(low, lo[4 * axis + k])
                 high = wp.max(high, hi[4 * axis + k])
-        margin = wp.float64(4.0) * ulp32(wp.float64(wp.float32(wp.max(wp.abs(low), wp.abs(high))))) + wp.float64(1.0e-30)
+        top = wp.float64(wp.float32(wp.max(wp.abs(low), wp.abs(high))))  # a float32 value
+        margin = wp.float64(4.0) * ulp32(top) + wp.float64(1.0e-30)
         origin = wp.float64(wp.float32(low - margin))
         if origin > low - margin:
             origin = next_down32(origin)

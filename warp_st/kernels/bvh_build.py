@@ -30,15 +30,14 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
     """The tree kernel and the node-box kernels (float32 boxes in leaf order, float64
     ones through the order), in one module (loaded together);
     ``uniform_t``: every primitive has the same time extent (a 3D build,
-    ``accel/blas.py``), which the bins then take from the node instead of reducing it
-    per primitive (the same trees)."""
+    ``accel/blas.py``), so the time axis gets no bins (the same trees)."""
     T0 = 1 if uniform_t else 0
     vec4 = wp.vec4
     bins_i = wp.types.vector(BINS, wp.int32)
     bins_f = wp.types.vector(BINS, wp.float32)
     AXES = 4 - T0  # the binned axes: t, x, y, z, or (uniform_t) x, y, z
-    bins4_i = wp.types.vector(AXES * BINS, wp.int32)
-    bins4_box = wp.types.matrix(shape=(AXES * BINS, 4), dtype=wp.float32)  # a bin box corner a row
+    axes_i = wp.types.vector(AXES * BINS, wp.int32)
+    axes_box = wp.types.matrix(shape=(AXES * BINS, 4), dtype=wp.float32)  # a bin box corner a row
     BIG = 3.0e38
 
     @wp.func
@@ -84,9 +83,9 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
             # vector min and max per primitive (the time axis, unbinned with
             # ``uniform_t``, has no bins); the sweeps step over empty bins (a split at an
             # empty bin has its neighbour's sets, cost and tie order).
-            count = bins4_i()
-            box_lo = bins4_box()
-            box_hi = bins4_box()
+            count = axes_i()
+            box_lo = axes_box()
+            box_hi = axes_box()
             for b in range(AXES * BINS):
                 box_lo[b] = vec4(BIG)
                 box_hi[b] = vec4(-BIG)
