@@ -14,6 +14,8 @@ e_x e_y e_z: for boxes sharing one time extent (bodies at rest) it orders splits
 the 3D surface area does. A second kernel of the same module reduces every node's box
 from the partitioned primitives (float32 boxes: the bottom levels, ``accel/blas.py``).
 """
+from typing import Any
+
 import warp as wp
 
 from warp_st.kernels.layout import MAX_DEPTH, SAH_FREE_DEPTH
@@ -226,29 +228,29 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                     free += 2
         used[r] = free - base[r]
 
-    @wp.kernel(enable_backward=False, module=sah_tree.module)
-    def node_boxes(
-        first: wp.array(dtype=wp.int32),
-        count: wp.array(dtype=wp.int32),
-        plo: wp.array(dtype=vec4),
-        phi: wp.array(dtype=vec4),
-        lo: wp.array(dtype=vec4),
-        hi: wp.array(dtype=vec4),
-    ):
+    @wp.func
+    def reduce_nodes(first: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32), order: wp.array(dtype=wp.int32),
+                     plo: Any, phi: Any, lo: Any, hi: Any, through_order: int):
         """Every node's box, on one thread: nodes from the last to the root (a node's two
-        children come after it), a leaf's from its primitives (``plo``/``phi`` in leaf
-        order, as the split kernel leaves them), an inner node's from its children."""
+        children come after it), a leaf's from its primitives (leaf slot k: primitive k,
+        or ``order[k]`` with ``through_order``), an inner node's from its children."""
         m = first.shape[0]
         for j in range(m):
             node = m - 1 - j
             f = first[node]
             c = count[node]
             if c > 0:
-                a = plo[f]
-                b = phi[f]
+                p = f
+                if through_order != 0:
+                    p = order[f]
+                a = plo[p]
+                b = phi[p]
                 for k in range(f + 1, f + c):
-                    a = wp.min(a, plo[k])
-                    b = wp.max(b, phi[k])
+                    p = k
+                    if through_order != 0:
+                        p = order[k]
+                    a = wp.min(a, plo[p])
+                    b = wp.max(b, phi[p])
                 lo[node] = a
                 hi[node] = b
             else:
@@ -256,32 +258,18 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                 hi[node] = wp.max(hi[f], hi[f + 1])
 
     @wp.kernel(enable_backward=False, module=sah_tree.module)
-    def node_boxes64(
-        first: wp.array(dtype=wp.int32),
-        count: wp.array(dtype=wp.int32),
-        order: wp.array(dtype=wp.int32),
-        plo: wp.array(dtype=wp.vec4d),
-        phi: wp.array(dtype=wp.vec4d),
-        lo: wp.array(dtype=wp.vec4d),
-        hi: wp.array(dtype=wp.vec4d),
-    ):
-        """``node_boxes`` of float64 boxes in their input order (leaf slot k holds
+    def node_boxes(first: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32), plo: wp.array(dtype=vec4),
+                   phi: wp.array(dtype=vec4), lo: wp.array(dtype=vec4), hi: wp.array(dtype=vec4)):
+        """Float32 node boxes from the primitives in leaf order (the split kernel's; the
+        order argument is not read)."""
+        reduce_nodes(first, count, first, plo, phi, lo, hi, 0)
+
+    @wp.kernel(enable_backward=False, module=sah_tree.module)
+    def node_boxes64(first: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32), order: wp.array(dtype=wp.int32),
+                     plo: wp.array(dtype=wp.vec4d), phi: wp.array(dtype=wp.vec4d), lo: wp.array(dtype=wp.vec4d),
+                     hi: wp.array(dtype=wp.vec4d)):
+        """Float64 node boxes from the primitives in their input order (leaf slot k holds
         primitive ``order[k]``)."""
-        m = first.shape[0]
-        for j in range(m):
-            node = m - 1 - j
-            f = first[node]
-            c = count[node]
-            if c > 0:
-                a = plo[order[f]]
-                b = phi[order[f]]
-                for k in range(f + 1, f + c):
-                    a = wp.min(a, plo[order[k]])
-                    b = wp.max(b, phi[order[k]])
-                lo[node] = a
-                hi[node] = b
-            else:
-                lo[node] = wp.min(lo[f], lo[f + 1])
-                hi[node] = wp.max(hi[f], hi[f + 1])
+        reduce_nodes(first, count, order, plo, phi, lo, hi, 1)
 
     return sah_tree, node_boxes, node_boxes64
