@@ -567,24 +567,24 @@ def test_shapes_built_on_threads_are_the_serial_builds(monkeypatch):
     assert built.body_root[7] == -1 and built.body_root[8] == built.body_root[1]  # no triangles; a shared shape
 
 
-def test_the_split_kernel_is_made_on_the_calling_thread(monkeypatch):
-    """In a new process the split kernel is made and loaded on the calling thread
+def test_the_tree_kernel_is_made_on_the_calling_thread(monkeypatch):
+    """In a new process the tree kernel is made and loaded on the calling thread
     (``bvh.load_builder``) before the pool's threads build shapes: two threads making it
     at once broke Warp's code generation (docs/design/two-level.md). Oracle: the thread of
-    every ``make_sah_split`` call, from an empty kernel cache."""
+    every ``make_sah_build`` call, from an empty kernel cache."""
     import threading
 
     from warp_st.accel import bvh
     from warp_st.kernels import bvh_build
 
     made = []
-    real = bvh_build.make_sah_split
+    real = bvh_build.make_sah_build
 
     def recording(*args, **kwargs):
         made.append(threading.current_thread())
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(bvh_build, "make_sah_split", recording)
+    monkeypatch.setattr(bvh_build, "make_sah_build", recording)
     monkeypatch.setattr(bvh, "_SAH_KERNELS", {})  # as in a new process
     asked = _two_workers(monkeypatch)
     built = BottomLevels(_distinct_shapes(7))

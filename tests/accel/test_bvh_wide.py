@@ -107,7 +107,7 @@ def test_a_build_on_one_thread_is_the_build_on_two(uniform_t):
 def test_float32_node_boxes_are_the_float64_ones(uniform_t):
     """Law: for boxes that are float32 numbers (a bottom level's triangles), the node
     boxes ``float32_boxes`` reduces in a Warp kernel (``kernels.bvh_build.node_boxes``,
-    from the split kernel's primitives in leaf order) are the float64 reduction's, every
+    from the tree kernel's primitives in leaf order) are the float64 reduction's, every
     node, bit for bit (min and max round nothing), over the same tree."""
     lo, hi = _boxes(3000, seed=11)
     if uniform_t:

@@ -116,8 +116,8 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
 
 
 def load_builder(primitive: str = "tet", *, leaf_size: int = LEAF_SIZE, uniform_t: bool = False) -> None:
-    """Make and load the split kernel ``build_bvh`` uses with these arguments (and the
-    node-box kernel, in its module), on the calling thread, so that builds on other
+    """Make and load the tree kernel ``build_bvh`` uses with these arguments (and the
+    node-box kernels, in its module), on the calling thread, so that builds on other
     threads only launch them (Warp's code generation parses Python with ``ast``, which
     CPython 3.11 does not allow on two threads at once: docs/design/two-level.md)."""
     import warp as wp
@@ -188,17 +188,17 @@ _SAH_KERNELS: dict = {}
 def _sah_kernel(cost_intersect: float, leaf_size: int, uniform_t: bool = False):
     """The tree kernel and the node-box kernels (one module, ``kernels/bvh_build``) for one
     intersection cost and leaf size, made once per process."""
-    from warp_st.kernels.bvh_build import make_sah_split
+    from warp_st.kernels.bvh_build import make_sah_build
 
     key = (cost_intersect, leaf_size, uniform_t)
     if key not in _SAH_KERNELS:
-        _SAH_KERNELS[key] = make_sah_split(leaf_size, SAH_MAX_LEAF, SAH_COST_TRAVERSE, cost_intersect, uniform_t)
+        _SAH_KERNELS[key] = make_sah_build(leaf_size, SAH_MAX_LEAF, SAH_COST_TRAVERSE, cost_intersect, uniform_t)
     return _SAH_KERNELS[key]
 
 
 def _bounds32(node_boxes, first, count, plo, phi):
     """Node boxes in float32 by ``node_boxes`` (``kernels.bvh_build``) from the
-    primitives' boxes in leaf order (``plo``/``phi``, the split kernel's)."""
+    primitives' boxes in leaf order (``plo``/``phi``, as the tree kernel leaves them)."""
     import warp as wp
 
     m = len(first)

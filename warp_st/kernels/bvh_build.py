@@ -20,7 +20,7 @@ import warp as wp
 
 from warp_st.kernels.layout import MAX_DEPTH, SAH_FREE_DEPTH
 
-__all__ = ["BINS", "make_sah_split"]
+__all__ = ["BINS", "make_sah_build"]
 
 #: Bins per axis.
 BINS = 16
@@ -28,7 +28,7 @@ BINS = 16
 STACK = MAX_DEPTH + 2
 
 
-def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_intersect: float, uniform_t: bool = False):
+def make_sah_build(min_leaf: int, max_leaf: int, cost_traverse: float, cost_intersect: float, uniform_t: bool = False):
     """The tree kernel and the node-box kernels (float32 boxes in leaf order, float64
     ones through the order), in one module (loaded together);
     ``uniform_t``: every primitive has the same time extent (a 3D build,
@@ -260,7 +260,7 @@ def make_sah_split(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
     @wp.kernel(enable_backward=False, module=sah_tree.module)
     def node_boxes(first: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32), plo: wp.array(dtype=vec4),
                    phi: wp.array(dtype=vec4), lo: wp.array(dtype=vec4), hi: wp.array(dtype=vec4)):
-        """Float32 node boxes from the primitives in leaf order (the split kernel's; the
+        """Float32 node boxes from the primitives in leaf order (as the tree kernel leaves them; the
         order argument is not read)."""
         reduce_nodes(first, count, first, plo, phi, lo, hi, 0)
 
