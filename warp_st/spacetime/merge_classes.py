@@ -44,7 +44,8 @@ def merge_plan(bodies: tuple, found: list, keys: list, uses: dict, quadric: list
     body's pieces, not exact quadrics). Their triangles, already held in the class's
     motion-group frame, become one shape: one bottom level and one set of segments, as
     one ``wp.Mesh`` holds them, instead of a top-level leaf, a float64 ray map and a
-    bottom-level query per body.
+    bottom-level query per body; where that shape's box would grow past the members'
+    boxes, the groups of them whose boxes do not (``_no_larger_groups``).
 
     Instances of shared shapes form classes of their own: when all copies of a class
     hold at most ``MERGE_TRIANGLES`` triangles, those within ``COPY_REACH`` of their
