@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from warp_st.accel.bvh import SPLIT_MIN, build_bvh
-from warp_st.accel.bvh_wide import LINK_MASK, LINK_SHIFT, WIDTH, collapse, wide_boxes
+from warp_st.accel.bvh_wide import LINK_MASK, LINK_SHIFT, MAX_WIDE_DEPTH, WIDTH, collapse, wide_boxes
 
 
 def _boxes(n, seed):
@@ -47,6 +47,54 @@ def test_wide_tree_has_the_binary_leaves_once(n):
     assert (covered == 1).all()
     # Two binary levels per wide level: the traversal stack is sized by this bound.
     assert wide.depth <= (bvh.depth + 1) // 2
+
+
+def _area(bvh):
+    e = np.maximum(bvh.node_hi[:, 1:].astype(np.float64) - bvh.node_lo[:, 1:], 0.0)
+    return e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0]
+
+
+def _open_largest_rule(bvh, area):
+    """The rule of ``collapse(bvh, area)`` in plain Python: each wide node's slots (by its
+    binary node), its two children with the inner slot of largest area (the first of
+    equals) replaced by its two children, twice."""
+    first, count = bvh.node_first.astype(int), bvh.node_count.astype(int)
+    out, todo = {}, [0]
+    while todo:
+        b = todo.pop()
+        slots = [first[b], first[b] + 1]
+        for _ in range(2):
+            inner = [x for x in slots if count[x] == 0]
+            if inner:
+                s = max(inner, key=lambda x: area[x])
+                i = slots.index(s)
+                slots[i:i + 1] = [first[s], first[s] + 1]
+        out[b] = slots + [-1] * (WIDTH - len(slots))
+        todo += [x for x in slots if count[x] == 0]
+    return out
+
+
+@pytest.mark.parametrize("n", [1, 5, 17, 1000, 20000])
+def test_a_collapse_opening_the_largest_boxes_keeps_every_leaf_once(n):
+    """Law: the collapse that fills a wide node by opening its largest inner slots
+    (``collapse(bvh, area)``, the bottom levels') holds every binary leaf exactly once,
+    reaches every wide node once, has the slots of the plain-Python rule (the same rows,
+    each under its binary node's wide node) and stays within the traversal stack's depth
+    bound (``MAX_WIDE_DEPTH``)."""
+    lo, hi = _boxes(n, n + 1)
+    lo[:, 0], hi[:, 0] = 0.0, 1.0e3
+    bvh = build_bvh(lo, hi, "tri", leaf_size=4, uniform_t=True)
+    area = _area(bvh)
+    wide = collapse(bvh, area)
+    leaves, seen = _walk(wide)
+    binary = sorted((int(f), int(c)) for f, c in zip(bvh.node_first, bvh.node_count) if c > 0)
+    assert sorted(leaves) == binary
+    assert sorted(seen) == list(range(wide.node_count))
+    assert wide.depth <= MAX_WIDE_DEPTH
+    if bvh.node_count[0] == 0:
+        rule = _open_largest_rule(bvh, area)
+        assert sorted(map(tuple, wide.slot_node.tolist())) == sorted(map(tuple, rule.values()))
+        assert len(rule) == wide.node_count
 
 
 def test_wide_boxes_are_the_binary_boxes_axis_major():

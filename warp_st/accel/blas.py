@@ -70,7 +70,8 @@ def shape_tree(points: np.ndarray, triangles: np.ndarray, threads: int = 2):
     mid[:, 0] = 0.5 * hi[:, 0]  # the float32 (lo + hi) / 2 of the other axes
     bvh = build_bvh(plo, phi, "tri", leaf_size=SHAPE_LEAF, uniform_t=True, threads=threads, float32_boxes=True,
                     centre=centre)
-    wide = collapse(bvh)
+    e = np.maximum(bvh.node_hi[:, 1:].astype(np.float64) - bvh.node_lo[:, 1:], 0.0)
+    wide = collapse(bvh, area=e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0])  # the largest opened
     q, frame = quantised_boxes(bvh.node_lo, bvh.node_hi, wide.slot_node)
     return q, frame, wide.link, bvh.order
 

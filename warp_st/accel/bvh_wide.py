@@ -41,14 +41,20 @@ class WideBVH:
         return int(len(self.link))
 
 
-def collapse(bvh: FlatBVH) -> WideBVH:
-    """The 4-wide tree of ``bvh`` (vectorised level by level)."""
+def collapse(bvh: FlatBVH, area: np.ndarray | None = None) -> WideBVH:
+    """The 4-wide tree of ``bvh`` (vectorised level by level). With ``area`` (M,), each
+    binary node's box surface, a wide node's slots are filled by opening, twice, the
+    inner slot of largest area (``_open_largest``) instead of taking the grandchildren."""
     first, count = bvh.node_first.astype(np.int64), bvh.node_count.astype(np.int64)
     if len(bvh.order) == 0:  # no primitives: one wide node with four empty slots
         return WideBVH(np.full((1, WIDTH), -1, np.int64), np.full((1, WIDTH), -1, np.int32), 1)
     if count[0] > 0:  # the root is a leaf
         slots = np.array([[0, -1, -1, -1]])
         return WideBVH(slots, _links(slots, first, count, np.zeros(1, np.int64)), 1)
+    if area is not None:
+        wide = _open_largest(first, count, area)
+        if wide is not None:
+            return wide
     # Wide nodes are the binary inner nodes at even depth, numbered in binary order.
     depth = np.full(len(first), -1, np.int64)
     level = np.array([0])
@@ -68,6 +74,50 @@ def collapse(bvh: FlatBVH) -> WideBVH:
         slots[:, 2 * side] = np.where(opened, first[c], c)
         slots[:, 2 * side + 1] = np.where(opened, first[c] + 1, -1)
     return WideBVH(slots, _links(slots, first, count, wide_id), (int(d) + 1) // 2)
+
+
+def _open_largest(first, count, area) -> WideBVH | None:
+    """The 4-wide tree whose nodes hold, for a binary inner node, its two children with
+    the inner one of largest ``area`` opened into its own two (the first of equals), and
+    then again among the three: a slot that is a leaf never takes a place it does not
+    fill, and the largest boxes, which rays enter most, are tested a level earlier.
+    Wide nodes are numbered in binary order, as ``collapse`` numbers them. None when the
+    tree would be deeper than ``MAX_WIDE_DEPTH`` (a wide level may advance one binary
+    level on a path, not two): the traversal's stack is sized by it."""
+    wide_nodes, rows = [], []
+    wave = np.array([0])
+    depth = 0
+    while len(wave):
+        depth += 1
+        if depth > MAX_WIDE_DEPTH:
+            return None
+        k = len(wave)
+        slots = np.full((k, WIDTH), -1, np.int64)
+        slots[:, 0], slots[:, 1] = first[wave], first[wave] + 1
+        for filled in (2, 3):
+            s = np.maximum(slots, 0)
+            a = np.where((slots >= 0) & (count[s] == 0), area[s], -1.0)
+            pick = np.argmax(a, axis=1)
+            child = first[np.maximum(slots[np.arange(k), pick], 0)]
+            opened = a[np.arange(k), pick] >= 0.0
+            grown = slots.copy()
+            for j in range(filled + 1):  # the opened slot's two children in its place
+                before = slots[:, j] if j < filled else -1
+                after = slots[:, j - 1] if j >= 1 else -1
+                grown[:, j] = np.where(j < pick, before,
+                                       np.where(j == pick, child, np.where(j == pick + 1, child + 1, after)))
+            slots = np.where(opened[:, None], grown, slots)
+        wide_nodes.append(wave)
+        rows.append(slots)
+        flat = slots.reshape(-1)
+        wave = flat[(flat >= 0) & (count[np.maximum(flat, 0)] == 0)]
+    wide_nodes = np.concatenate(wide_nodes)
+    rows = np.concatenate(rows)
+    by_index = np.argsort(wide_nodes, kind="stable")
+    wide_id = np.full(len(first), -1, np.int64)
+    wide_id[wide_nodes[by_index]] = np.arange(len(wide_nodes))
+    slots = rows[by_index]
+    return WideBVH(slots, _links(slots, first, count, wide_id), depth)
 
 
 def _links(slots, first, count, wide_id) -> np.ndarray:
