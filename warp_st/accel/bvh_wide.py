@@ -80,43 +80,32 @@ def _open_largest(first, count, area) -> WideBVH | None:
     """The 4-wide tree whose nodes hold, for a binary inner node, its two children with
     the inner one of largest ``area`` opened into its own two (the first of equals), and
     then again among the three: a slot that is a leaf never takes a place it does not
-    fill, and the largest boxes, which rays enter most, are tested a level earlier.
-    Wide nodes are numbered in binary order, as ``collapse`` numbers them. None when the
-    tree would be deeper than ``MAX_WIDE_DEPTH`` (a wide level may advance one binary
-    level on a path, not two): the traversal's stack is sized by it."""
-    wide_nodes, rows = [], []
-    wave = np.array([0])
-    depth = 0
-    while len(wave):
-        depth += 1
-        if depth > MAX_WIDE_DEPTH:
-            return None
-        k = len(wave)
-        slots = np.full((k, WIDTH), -1, np.int64)
-        slots[:, 0], slots[:, 1] = first[wave], first[wave] + 1
-        for filled in (2, 3):
-            s = np.maximum(slots, 0)
-            a = np.where((slots >= 0) & (count[s] == 0), area[s], -1.0)
-            pick = np.argmax(a, axis=1)
-            child = first[np.maximum(slots[np.arange(k), pick], 0)]
-            opened = a[np.arange(k), pick] >= 0.0
-            grown = slots.copy()
-            for j in range(filled + 1):  # the opened slot's two children in its place
-                before = slots[:, j] if j < filled else -1
-                after = slots[:, j - 1] if j >= 1 else -1
-                grown[:, j] = np.where(j < pick, before,
-                                       np.where(j == pick, child, np.where(j == pick + 1, child + 1, after)))
-            slots = np.where(opened[:, None], grown, slots)
-        wide_nodes.append(wave)
-        rows.append(slots)
-        flat = slots.reshape(-1)
-        wave = flat[(flat >= 0) & (count[np.maximum(flat, 0)] == 0)]
-    wide_nodes = np.concatenate(wide_nodes)
-    rows = np.concatenate(rows)
-    by_index = np.argsort(wide_nodes, kind="stable")
-    wide_id = np.full(len(first), -1, np.int64)
-    wide_id[wide_nodes[by_index]] = np.arange(len(wide_nodes))
-    slots = rows[by_index]
+    fill, and the largest boxes, which rays enter most, are tested a level earlier (a Warp
+    kernel, ``kernels/blas_build.open_largest``). Wide nodes are numbered in binary order,
+    as ``collapse`` numbers them. None when the tree would be deeper than
+    ``MAX_WIDE_DEPTH`` (a wide level may advance one binary level on a path, not two):
+    the traversal's stack is sized by it."""
+    import warp as wp
+
+    from warp_st.kernels.blas_build import open_largest
+
+    m = len(first)
+    wide = np.zeros(m, np.int32)
+    wide[0] = 1
+    wide_w = wp.array(wide, dtype=wp.int32, device="cpu")
+    slots_w = wp.empty((m, WIDTH), dtype=wp.int32, device="cpu")
+    wp.launch(open_largest, dim=1, inputs=[wp.array(first.astype(np.int32), dtype=wp.int32, device="cpu"),
+                                           wp.array(count.astype(np.int32), dtype=wp.int32, device="cpu"),
+                                           wp.array(np.asarray(area, np.float64), dtype=wp.float64, device="cpu"),
+                                           wide_w, slots_w], device="cpu")
+    level = wide_w.numpy()
+    nodes = np.nonzero(level)[0]
+    depth = int(level.max())
+    if depth > MAX_WIDE_DEPTH:
+        return None
+    wide_id = np.full(m, -1, np.int64)
+    wide_id[nodes] = np.arange(len(nodes))
+    slots = slots_w.numpy()[nodes].astype(np.int64)
     return WideBVH(slots, _links(slots, first, count, wide_id), depth)
 
 

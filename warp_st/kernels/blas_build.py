@@ -132,3 +132,38 @@ def quantise(node_lo: wp.array(dtype=wp.vec4), node_hi: wp.array(dtype=wp.vec4),
                                 wp.float64(STEPS))
             q[w, 4 * axis + k] = wp.uint8(int(q_lo))
             q[w, 12 + 4 * axis + k] = wp.uint8(int(q_hi))
+
+
+@wp.kernel(enable_backward=False)
+def open_largest(first: wp.array(dtype=wp.int32), count: wp.array(dtype=wp.int32), area: wp.array(dtype=wp.float64),
+                 wide: wp.array(dtype=wp.int32), slots: wp.array2d(dtype=wp.int32)):
+    """On one thread: every binary inner node that is a wide node (``wide`` its wide depth,
+    from 1; 0: not one; the root's set by the caller), in index order (a node's children
+    come after it), gets its four slots: its two children with the inner slot of largest
+    ``area`` (the first of equals) replaced by its two children, twice (-1: empty); the
+    inner slots become wide nodes one level deeper."""
+    m = first.shape[0]
+    for b in range(m):
+        if wide[b] > 0:
+            s = wp.vec4i(first[b], first[b] + 1, -1, -1)
+            filled = int(2)
+            for _step in range(2):
+                pick = int(-1)
+                best = wp.float64(-1.0)
+                for j in range(4):
+                    if j < filled and count[s[j]] == 0 and area[s[j]] > best:
+                        best = area[s[j]]
+                        pick = j
+                if pick >= 0:
+                    c = first[s[pick]]
+                    for jj in range(3):  # shift the slots after pick one place on
+                        j = 3 - jj
+                        if j > pick + 1:
+                            s[j] = s[j - 1]
+                    s[pick] = c
+                    s[pick + 1] = c + 1
+                    filled += 1
+            for j in range(4):
+                slots[b, j] = s[j]
+                if s[j] >= 0 and count[s[j]] == 0:
+                    wide[s[j]] = wide[b] + 1
