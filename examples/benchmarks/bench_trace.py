@@ -25,7 +25,6 @@ import statistics
 import sys
 import tempfile
 import time
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -209,15 +208,12 @@ class Launcher:
 
     def __init__(self, n, tile):
         self.tiles = [(o, min(o + tile, n)) for o in range(0, n, tile)]
-        self.pool = ThreadPoolExecutor(max_workers=2)
 
     def run(self, launch_tile, threads):
+        from warp_st.core.thread_pool import each_on_threads
+
         t0 = time.perf_counter()
-        if threads == 1:
-            for t in self.tiles:
-                launch_tile(*t)
-        else:
-            list(self.pool.map(lambda t: launch_tile(*t), self.tiles))
+        each_on_threads(lambda t: launch_tile(*t), self.tiles, threads)
         return time.perf_counter() - t0
 
 
@@ -388,7 +384,6 @@ def bench_static(name, scene, cam, args, log):
         for th in (1, 2):
             for who, (launch, _) in tracers.items():
                 times[(who, th)].append(launcher.run(launch, th))
-    launcher.pool.shutdown()
     for (who, th), v in times.items():
         res[f"{who}_s_{th}t"] = summarize(v)
         res[f"{who}_mrays_{th}t"] = n / statistics.median(v) / 1e6
@@ -530,7 +525,7 @@ def build_report(results, machine, args):
         "mirror bounces up to max depth, all AOVs); Mrays/s counts W*H primary rays only; kernel time from `stats.last_kernel_seconds`, full frame from `stats.last_frame_seconds` "
         "(adds recentring upload and film read-back).",
         "- static = same camera and pixel rays, every body at rest (one prism = 3 tets per triangle); closest hit only, "
-        "tiles of min(4096, W*H/16) rays, 2 threads = tiles from a ThreadPoolExecutor (embreex releases the GIL). "
+        "tiles of min(4096, W*H/16) rays, 2 threads = the calling thread and one pool thread, each taking the next tile (embreex releases the GIL). "
         "wp.Mesh uses Warp's default CPU BVH (SAH, leaf size 4); Embree is Intel Embree 4 through `embreex` "
         "(`EmbreeScene.run`, rtcIntersect1 per ray, its default BVH and SIMD kernels, float32); "
         "ours is the 4D binned-SAH BVH (leaf size ≤ 4) collapsed to 4 children per node (a visit = one 16-lane slab test of four 4D boxes) with float64 leaf tests: one comoving triangle per prism "

@@ -46,7 +46,6 @@ import statistics
 import subprocess
 import sys
 import time
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -158,7 +157,6 @@ class MeshQueries:
         self.t = wp.zeros(n, dtype=wp.float32, device="cpu")
         self.tiles = [(o, min(o + TILE_PIXELS, n)) for o in range(0, n, TILE_PIXELS)]
         self.kernel = _mesh_kernel(wp)
-        self.pool = ThreadPoolExecutor(max_workers=2)
         self.build()
         self.query(2)  # compile / load the kernel, first touch
 
@@ -179,20 +177,19 @@ class MeshQueries:
         return self.run(launch, threads)
 
     def run(self, launch, threads: int) -> float:
-        """Seconds to call ``launch(tile)`` on every tile, in turn or from the 2-thread pool
-        (wall time, or with ``--clock cpu`` the process's CPU time: ``CLOCK``)."""
+        """Seconds to call ``launch(tile)`` on every tile, in turn or on 2 threads taking
+        the next tile as the renderer's do (``each_on_threads``; wall time, or with
+        ``--clock cpu`` the process's CPU time: ``CLOCK``)."""
+        from warp_st.core.thread_pool import each_on_threads
+
         t0 = CLOCK[0]()
-        if threads == 1:
-            for tile in self.tiles:
-                launch(tile)
-        else:
-            list(self.pool.map(launch, self.tiles))
+        each_on_threads(launch, self.tiles, threads)
         return CLOCK[0]() - t0
 
 
 class EmbreeQueries:
     """Embree (``embreex``: rtcIntersect1 per ray, its default BVH, float32) over the same
-    triangles and rays as ``MeshQueries``, in the same tiles and thread pool (embreex
+    triangles and rays as ``MeshQueries``, in the same tiles and threads (embreex
     releases the GIL). ``EmbreeQueries.create`` is None when embreex is not installed."""
 
     @classmethod

@@ -22,7 +22,7 @@ import numpy as np
 from warp_st.core.conventions import DEFAULT_RESOLUTION, LightSpeed, Precision
 from warp_st.core.limits import resolve_max_memory
 from warp_st.core.scene import CameraState, Scene, SceneError
-from warp_st.core.thread_pool import thread_pool
+from warp_st.core.thread_pool import each_on_threads
 from warp_st.kernels.layout import PRIMITIVES
 from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
 from warp_st.output.cryptomatte import image_layers, resolve_layers
@@ -510,11 +510,7 @@ class Renderer:
 
         t_kernel = time.perf_counter()
         n_threads = max(1, int(threads or self.threads))
-        if n_threads == 1 or len(tiles) == 1:
-            for tile in tiles:
-                launch(tile)
-        else:
-            list(thread_pool(n_threads).map(launch, tiles))
+        each_on_threads(launch, tiles, n_threads)
         kernel_seconds = time.perf_counter() - t_kernel
         if film.overflow.numpy()[0]:
             raise RuntimeError("BVH traversal stack overflow: the image would be wrong (please report)")
