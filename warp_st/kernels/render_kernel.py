@@ -362,14 +362,18 @@ def _make_render(scalar, k, trace, Geometry):
             first = offset + wp.tid() * PIXELS_PER_THREAD
             last = wp.min(first + PIXELS_PER_THREAD, end)
             thread_visits = int(0)
+            n_next = pixel_direction(cam, first % cam.width, first / cam.width)
             for pixel in range(first, last):
                 px = pixel % cam.width
                 py = pixel / cam.width
+                n = n_next
+                if pixel + 1 < last:  # the next pixel's direction (float64 sqrt and divisions) computed before
+                    # this pixel's trace, which does not wait for it: out-of-order execution overlaps the two
+                    n_next = pixel_direction(cam, (pixel + 1) % cam.width, (pixel + 1) / cam.width)
                 # Ray 0 is the AOV ray: the pixel centre at the frame's camera time (also the
                 # beauty when there is one sample); rays 1..samples are the jittered samples.
                 # One call site of trace_path, so the compiler inlines it (with a second one it
                 # became an out-of-line call copying the Geometry and Shading structs per ray).
-                n = pixel_direction(cam, px, py)
                 rays = int(1)
                 if cam.samples > 1:
                     rays = 1 + cam.samples

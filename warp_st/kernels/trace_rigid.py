@@ -257,6 +257,11 @@ def make_trace_rigid(scalar, tets: bool = False):
         inside the box) is discarded and the query repeated from past it: from the
         lifetime's end if the hit lies beyond that (the start is still the body's), else
         from the span's start (then the dropped hit is another segment's, and nearer)."""
+        # best_lam as four scalars (see traverse.py's trace): no vector merged under a branch
+        lam0 = best_lam[0]
+        lam1 = best_lam[1]
+        lam2 = best_lam[2]
+        lam3 = best_lam[3]
         for k in range(count):
             si = first + k
             span = g.seg_span[si]
@@ -268,9 +273,12 @@ def make_trace_rigid(scalar, tets: bool = False):
                     if tp >= 0:
                         best = ts
                         best_prim = g.tet_first + tp
-                        best_lam = tl
+                        lam0 = tl[0]
+                        lam1 = tl[1]
+                        lam2 = tl[2]
+                        lam3 = tl[3]
                         if any_hit != 0:
-                            return best, best_prim, best_lam
+                            return best, best_prim, tl
                     continue
             s_from = s_min
             own = int(0)  # a body of skip_body's object (an animated body's piece)
@@ -313,9 +321,12 @@ def make_trace_rigid(scalar, tets: bool = False):
                     if s >= wp.float64(s_lo):
                         best = scalar(s)
                         best_prim = base
-                        best_lam = vec4(normal[0], normal[1], normal[2], scalar(ANALYTIC))
+                        lam0 = normal[0]
+                        lam1 = normal[1]
+                        lam2 = normal[2]
+                        lam3 = scalar(ANALYTIC)
                         if any_hit != 0:
-                            return best, best_prim, best_lam
+                            return best, best_prim, vec4(lam0, lam1, lam2, lam3)
                 elif root >= 0:
                     # Start at the body's rest box. A shadow ray (any hit) on another
                     # body needs one query. Otherwise a hit on ``skip_tri`` is stepped
@@ -345,16 +356,18 @@ def make_trace_rigid(scalar, tets: bool = False):
                             elif s >= wp.float64(s_lo):
                                 best = scalar(s)
                                 best_prim = base + face
-                                best_lam = vec4(scalar(qu), scalar(qv), scalar(1.0) - scalar(qu) - scalar(qv),
-                                                scalar(0.0))
+                                lam0 = scalar(qu)
+                                lam1 = scalar(qv)
+                                lam2 = scalar(1.0) - scalar(qu) - scalar(qv)
+                                lam3 = scalar(0.0)
                                 e1 = wp.float64(-1.0)
                             elif s < s_life:
                                 e0 = s_life
                             else:
                                 e0 = wp.float64(s_lo)
                     if any_hit != 0 and best_prim >= 0:
-                        return best, best_prim, best_lam
-        return best, best_prim, best_lam
+                        return best, best_prim, vec4(lam0, lam1, lam2, lam3)
+        return best, best_prim, vec4(lam0, lam1, lam2, lam3)
 
     trace = make_traverse(scalar, Geometry, prepare, leaf)
     Geometry.tet_geometry = TetGeometry  # the nested struct's type (None without tets)

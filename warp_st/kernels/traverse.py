@@ -179,7 +179,14 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None):
         ray = prepare(g, o, n, finite)
         best = s_max
         best_prim = int(-1)
-        best_lam = vec4(scalar(0.0))
+        # The hit's barycentrics as four scalars, not a vec4: Warp merges a variable assigned
+        # under a branch with wp.where, which for a vector copies it through memory, and the
+        # 8-byte loads of a vector just stored as 4-byte pieces wait for the stores (a failed
+        # store-to-load forwarding at every leaf visit).
+        lam0 = scalar(0.0)
+        lam1 = scalar(0.0)
+        lam2 = scalar(0.0)
+        lam3 = scalar(0.0)
         visits = int(0)
         overflow = int(0)
         st_node = stack_i()
@@ -195,8 +202,12 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None):
             count = cur & LINK_MASK
             next_link = int(-1)
             if count > 0:
-                best, best_prim, best_lam = leaf(g, ray, first, count, o, n, finite, s_min, best, best_prim, best_lam,
-                                                 skip_tri, skip_body, skip_dist, any_hit)
+                best, best_prim, lam = leaf(g, ray, first, count, o, n, finite, s_min, best, best_prim,
+                                            vec4(lam0, lam1, lam2, lam3), skip_tri, skip_body, skip_dist, any_hit)
+                lam0 = lam[0]
+                lam1 = lam[1]
+                lam2 = lam[2]
+                lam3 = lam[3]
                 if any_hit != 0 and best_prim >= 0:
                     break
             else:
@@ -230,6 +241,6 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None):
                 if st_s[sp] <= best:
                     next_link = st_node[sp]
             cur = next_link
-        return best_prim, best, best_lam, visits, overflow
+        return best_prim, best, vec4(lam0, lam1, lam2, lam3), visits, overflow
 
     return trace
