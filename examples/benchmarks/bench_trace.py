@@ -154,10 +154,7 @@ def probe_launcher(k, geo, dirs):
     out = (wp.zeros(n, dtype=wp.int32, device="cpu"), wp.zeros(n, dtype=wp.float32, device="cpu"),
            wp.zeros(n, dtype=wp.int32, device="cpu"))
 
-    def launch(a, b):
-        wp.launch(k.cast_rays, dim=b - a, inputs=[geo, o4, dirs, 1, out[0], out[1], out[2], a], device="cpu")
-
-    return launch, out
+    return tile_launcher(k.cast_rays, [geo, o4, dirs, 1, *out]), out
 
 
 def mesh_launcher(points, tris, dirs):
@@ -176,10 +173,24 @@ def mesh_launcher(points, tris, dirs):
     face = wp.zeros(n, dtype=wp.int32, device="cpu")
     t_hit = wp.zeros(n, dtype=wp.float32, device="cpu")
 
-    def launch(a, b, wmesh=wmesh):
-        wp.launch(mk, dim=b - a, inputs=[wmesh.id, o3, dirs, 1.0e30, face, t_hit, a], device="cpu")
-
+    launch = tile_launcher(mk, [wmesh.id, o3, dirs, 1.0e30, face, t_hit])
+    launch.mesh = wmesh  # kept alive with its launches
     return launch, (face, t_hit), mk
+
+
+def tile_launcher(kernel, inputs):
+    """launch(a, b) of ``kernel`` (``inputs``, then the first ray) on rays [a, b), each
+    thread replaying its recorded launch as the renderer's tiles do (``tile_launches``)."""
+    import warp as wp
+
+    from warp_st.rendering.renderer import tile_launches
+
+    replay = tile_launches(wp, kernel, inputs, per_thread=1, end=False)
+
+    def launch(a, b):
+        replay((a, b - a))
+
+    return launch
 
 
 def scene_triangles(scene, windows):

@@ -168,20 +168,25 @@ class MeshQueries:
         return time.perf_counter() - t0
 
     def query(self, threads: int) -> float:
-        wp, mid = self.wp, self.mesh.id
+        return self.run(self.kernel, [self.mesh.id, self.origins, self.dirs, self.face, self.t], threads)
 
-        def launch(tile):
-            a, b = tile
-            wp.launch(self.kernel, dim=b - a, inputs=[mid, self.origins, self.dirs, self.face, self.t, a], device="cpu")
-
-        return self.run(launch, threads)
-
-    def run(self, launch, threads: int) -> float:
-        """Seconds to call ``launch(tile)`` on every tile, in turn or on 2 threads taking
-        the next tile as the renderer's do (``each_on_threads``; wall time, or with
-        ``--clock cpu`` the process's CPU time: ``CLOCK``)."""
+    def run(self, kernel_or_launch, inputs, threads: int) -> float:
+        """Seconds to launch ``kernel`` (its ``inputs``, then a tile's first ray) on every
+        tile, in turn or on 2 threads taking the next tile as the renderer's do
+        (``each_on_threads``), each thread replaying its recorded launch as the renderer's
+        tiles do (``tile_launches``); ``inputs`` None: ``kernel_or_launch`` is
+        ``launch(tile)`` itself. Wall time, or with ``--clock cpu`` the process's CPU
+        time (``CLOCK``)."""
         from warp_st.core.thread_pool import each_on_threads
+        from warp_st.rendering.renderer import tile_launches
 
+        if inputs is None:
+            launch = kernel_or_launch
+        else:
+            replay = tile_launches(self.wp, kernel_or_launch, inputs, per_thread=1, end=False)
+
+            def launch(tile):
+                replay((tile[0], tile[1] - tile[0]))
         t0 = CLOCK[0]()
         each_on_threads(launch, self.tiles, threads)
         return CLOCK[0]() - t0
@@ -226,7 +231,7 @@ class EmbreeQueries:
             r = self.scene.run(self.origins[a:b], self.dirs[a:b], output=1)
             self.face[a:b] = np.where(r["geomID"] >= 0, r["primID"], -1)
 
-        return self.mesh.run(launch, threads)
+        return self.mesh.run(launch, None, threads)
 
 
 def _mesh_kernel(wp):
@@ -301,12 +306,7 @@ def closest_hits(r, geo, mesh, origin_event, label, args, log, finite=1):
             wp.zeros(n, dtype=wp.int32, device="cpu")]
 
     def ours(threads):
-        def launch(tile):
-            a, b = tile
-            wp.launch(r.kernels.cast_rays, dim=b - a, inputs=[geo, outs[0], mesh.dirs, finite, outs[1], outs[2], outs[3],
-                                                              a], device="cpu")
-
-        return mesh.run(launch, threads)
+        return mesh.run(r.kernels.cast_rays, [geo, outs[0], mesh.dirs, finite, outs[1], outs[2], outs[3]], threads)
 
     ours(2)
     embree = EmbreeQueries.create(mesh, log)

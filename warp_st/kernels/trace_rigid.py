@@ -111,6 +111,7 @@ def make_trace_rigid(scalar, tets: bool = False):
         body_rest_hi: wp.array(dtype=wp.vec3d)
         body_start_lo: wp.array(dtype=wp.vec3d)  # the box of every shape held in that frame
         body_start_hi: wp.array(dtype=wp.vec3d)
+        body_start_own: wp.array(dtype=wp.int32)  # 1 where that box is the body's own (the frame holds it alone)
         body_anchor: wp.array(dtype=wp.vec4d)  # the frame's event relative to the render origin
         body_end: wp.array(dtype=wp.float64)  # the lifetime's end relative to the render origin
         body_quadric: wp.array(dtype=wp.int32)  # >0: the body is that exact shape (kernels/quadrics.py)
@@ -305,7 +306,7 @@ def make_trace_rigid(scalar, tets: bool = False):
                 inv_d = reciprocal(d)
                 e0, e1 = rest_range(g.body_rest_lo[body], g.body_rest_hi[body], p, d, inv_d, wp.float64(s_from),
                                     wp.float64(s_hi))
-                if e0 < e1:  # the body's own box is met: start where its frame's is entered
+                if e0 < e1 and g.body_start_own[body] == 0:  # its box is met: start where its frame's is entered
                     e0, _e = rest_range(g.body_start_lo[body], g.body_start_hi[body], p, d, inv_d,
                                         wp.float64(s_from), wp.float64(s_hi))
                 pm = p  # the ray as the bottom level sees it (the same s)

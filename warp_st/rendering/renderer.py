@@ -14,6 +14,7 @@ import dataclasses
 import functools
 import math
 import os
+import threading
 import time
 from dataclasses import dataclass
 
@@ -504,9 +505,7 @@ class Renderer:
 
         kernel = k.pixels(bool(self.scene.lights))  # without lights: the kernel that casts no shadow rays
 
-        def launch(tile):
-            wp.launch(kernel, dim=-(-tile[1] // PIXELS_PER_THREAD), device="cpu",
-                      inputs=[geo, shd, kcam, film, tile[0], tile[0] + tile[1]])
+        launch = tile_launches(wp, kernel, [geo, shd, kcam, film])
 
         t_kernel = time.perf_counter()
         n_threads = max(1, int(threads or self.threads))
@@ -557,6 +556,37 @@ class Renderer:
                 **self.scene.header(),  # metersPerUnit, timeCodesPerSecond
             },
         )
+
+
+def tile_launches(wp, kernel, inputs: list, per_thread: int = PIXELS_PER_THREAD, end: bool = True):
+    """``launch(tile)`` of ``kernel`` over tile = (first item, items): ``inputs``, then the
+    tile's first item (and with ``end`` its end), a kernel thread per ``per_thread`` items
+    (the pixel kernel's layout). Each thread packs its launch once
+    (``wp.launch(record_cmd=True)``) and replays it with the tile's range set, instead of
+    packing the inputs (the structs' ~40 arrays) under the GIL for every tile
+    (docs/design/two-level.md)."""
+    wp.load_module(kernel.module, device="cpu")  # before any thread records: two loading it at once crash
+    recorded = {}  # thread -> [launch, its dim]
+    at = len(inputs)
+
+    def launch(tile):
+        first, count = tile
+        dim = -(-count // per_thread)
+        cmd = recorded.get(threading.get_ident())
+        if cmd is None:
+            cmd = recorded[threading.get_ident()] = [
+                wp.launch(kernel, dim=dim, device="cpu", inputs=[*inputs, first, first + count][:at + 1 + end],
+                          record_cmd=True), dim]
+        else:
+            cmd[0].set_param_at_index(at, first)
+            if end:
+                cmd[0].set_param_at_index(at + 1, first + count)
+            if dim != cmd[1]:
+                cmd[0].set_dim(dim)
+                cmd[1] = dim
+        cmd[0].launch()
+
+    return launch
 
 
 def render_frame(scene: Scene, *, frame=None, **options) -> Image:
