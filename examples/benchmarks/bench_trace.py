@@ -183,7 +183,7 @@ def tile_launcher(kernel, inputs):
     thread replaying its recorded launch as the renderer's tiles do (``tile_launches``)."""
     import warp as wp
 
-    from warp_st.rendering.renderer import tile_launches
+    from warp_st.rendering.launches import tile_launches
 
     replay = tile_launches(wp, kernel, inputs, per_thread=1, end=False)
 

@@ -178,7 +178,7 @@ class MeshQueries:
         ``launch(tile)`` itself. Wall time, or with ``--clock cpu`` the process's CPU
         time (``CLOCK``)."""
         from warp_st.core.thread_pool import each_on_threads
-        from warp_st.rendering.renderer import tile_launches
+        from warp_st.rendering.launches import tile_launches
 
         if inputs is None:
             launch = kernel_or_launch

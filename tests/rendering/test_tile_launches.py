@@ -6,7 +6,7 @@ import warp as wp
 
 from warp_st.core.thread_pool import each_on_threads
 from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
-from warp_st.rendering.renderer import tile_launches
+from warp_st.rendering.launches import tile_launches
 from warp_st.rendering.warp_init import init_warp
 
 init_warp()

@@ -132,6 +132,21 @@ def _make_render(scalar, k, trace, Geometry):
         sample_id: wp.array(dtype=wp.int32)  # Cryptomatte: 1 + the triangle each sample hits first, 0: none; empty: off
         visits: wp.array(dtype=wp.int32)  # node visits per kernel thread (its PIXELS_PER_THREAD pixels), not per pixel
         overflow: wp.array(dtype=wp.int32)
+        # The Image's own time planes (float64 time codes, absolute), written instead of
+        # event_time / source_time when not empty: ``time_code`` of the relative lab times.
+        event_code: wp.array(dtype=wp.float64)
+        source_code: wp.array(dtype=wp.float64)
+        code_origin: wp.float64  # the camera's time code
+        per_code: wp.float64  # lab time per time code (the light speed, docs/spec.md §3.1)
+
+    @wp.func
+    def time_code(rel: scalar, origin: wp.float64, per_code: wp.float64) -> wp.float64:
+        """A relative lab time as the Image stores it: in time codes, absolute, quantised as
+        the EXR stores it (output/film.quantize_relative's float64 operations, in its order)."""
+        r = wp.float64(rel)
+        if per_code != wp.float64(1.0):
+            r = r / per_code
+        return wp.float64(wp.float32((r + origin) - origin)) + origin
 
     @wp.func
     def aberrate(n_rest: vec3, v: vec3, gamma: scalar, decoupled: int) -> vec3:
@@ -429,7 +444,12 @@ def _make_render(scalar, k, trace, Geometry):
                 film.rgba[pixel] = vec4(color[0] + bg[0] * (scalar(1.0) - alpha), color[1] + bg[1] * (scalar(1.0) - alpha), color[2] + bg[2] * (scalar(1.0) - alpha), alpha)
                 if prim < 0:
                     film.depth[pixel] = scalar(wp.inf)
-                    film.event_time[pixel] = scalar(wp.nan)
+                    if film.event_code.shape[0] > 0:
+                        film.event_code[pixel] = wp.float64(wp.nan)
+                        film.source_code[pixel] = wp.float64(wp.nan)
+                    else:
+                        film.event_time[pixel] = scalar(wp.nan)
+                        film.source_time[pixel] = scalar(wp.nan)
                     film.proper_time[pixel] = scalar(wp.nan)
                     film.doppler[pixel] = scalar(wp.nan)
                     if shd.sky.present != 0:  # the dome's D = (k.u_cam)/(k.u_lab), k = (1, -n)
@@ -438,7 +458,6 @@ def _make_render(scalar, k, trace, Geometry):
                         if cam.finite != 0:
                             film.doppler[pixel] = uc0[0] + n[0] * uc0[1] + n[1] * uc0[2] + n[2] * uc0[3]
                     film.object_id[pixel] = 0
-                    film.source_time[pixel] = scalar(wp.nan)
                     film.bounces[pixel] = 0
                     continue
                 dt = scalar(0.0)
@@ -446,8 +465,12 @@ def _make_render(scalar, k, trace, Geometry):
                     dt = -s
                 event = vec4(dt, s * n[0], s * n[1], s * n[2])
                 film.depth[pixel] = rest_distance(cam, dt, vec3(event[1], event[2], event[3]))
-                film.event_time[pixel] = event[0]
-                film.source_time[pixel] = src_t - cam.origin[0]  # trace_path's events are the anchor's
+                if film.event_code.shape[0] > 0:
+                    film.event_code[pixel] = time_code(event[0], film.code_origin, film.per_code)
+                    film.source_code[pixel] = time_code(src_t - cam.origin[0], film.code_origin, film.per_code)
+                else:
+                    film.event_time[pixel] = event[0]
+                    film.source_time[pixel] = src_t - cam.origin[0]  # trace_path's events are the anchor's
                 film.bounces[pixel] = src_b
 
                 body = shd.tri_body[prim_triangle(geo, prim)]

@@ -1,21 +1,58 @@
-"""A rendered film's planes copied into an Image's, in bands of rows on the render's thread pool.
+"""A rendered film's planes and the Image's.
 
-The film is reused by the next render, so every plane is copied out (and the kernels'
-relative float32 times become absolute, quantised as the EXR stores them: channels.py).
-Each step is elementwise, so a band gives the rows the whole plane would, bit for bit;
-NumPy releases the GIL on arrays, so bands on two threads take about half the time.
+A float32 render's kernel writes the Image's planes itself (``film_into`` points the film
+at them before the launch, its times written as absolute time codes, quantised as the EXR
+stores them: channels.py, ``render_kernel.time_code``); ``finish_in_place`` then maps
+bodies to objects and proper times to time codes in place. A float64 render's film is its
+own (float64 planes, reused by the next render), so ``copy_film`` copies every plane out,
+in bands of rows on the render's thread pool (each step is elementwise, so a band gives
+the rows the whole plane would, bit for bit; NumPy releases the GIL on arrays, so bands
+on two threads take about half the time). ``copy_film`` of a float32 film is the test's
+twin of the kernel's own time codes.
 """
 from __future__ import annotations
 
 import numpy as np
+import warp as wp
 
 from warp_st.core.thread_pool import thread_pool
 from warp_st.output.channels import LOW_TIME_CHANNELS, join_time, split_time
 from warp_st.output.film import quantize_relative
 
-__all__ = ["copy_film"]
+__all__ = ["copy_film", "film_into", "finish_in_place"]
 
 _TIMES = (("spacetime.eventTime", "event_time"), ("spacetime.sourceTime", "source_time"))
+
+
+#: The Image's planes the kernel writes through the film, by film field: (plane, its dtype there).
+_INTO = (("rgba", "rgba"), ("depth", "depth"), ("proper_time", "proper_time"), ("doppler", "doppler"),
+         ("object_id", "object_id"), ("bounces", "bounces"), ("event_code", "event_time"),
+         ("source_code", "source_time"))
+
+
+def film_into(k, film, out: dict, *, origin: float, per_code: float) -> None:
+    """Point ``film``'s planes (a ``take_film(into_image=True)`` film, float32 kernels ``k``)
+    at ``out``'s (``frame_inputs.image_planes``) for one launch: the kernel then writes the
+    Image itself, its times as time codes about ``origin`` (lab / ``per_code``). The film
+    holds raw pointers: ``out`` must outlive the launch."""
+    types = {"rgba": k.vec4, "depth": wp.float32, "proper_time": wp.float32, "doppler": wp.float32,
+             "object_id": wp.int32, "bounces": wp.int32, "event_code": wp.float64, "source_code": wp.float64}
+    for field, plane in _INTO:
+        a = out[plane]
+        # object_id and bounces are uint32 planes written as int32 (ids and counts < 2^31)
+        setattr(film, field, wp.array(ptr=a.ctypes.data, shape=(a.shape[0] * a.shape[1],), dtype=types[field],
+                                      device="cpu"))
+    film.code_origin = float(origin)
+    film.per_code = float(per_code)
+
+
+def finish_in_place(out: dict, *, per_code: float, object_of=None) -> None:
+    """What ``copy_film`` does to the planes besides copying, done on ``out`` in place after
+    a ``film_into`` launch: bodies to objects (``object_of``), proper times to time codes."""
+    if object_of is not None:
+        ids = out["object_id"]
+        ids[...] = np.where(ids > 0, object_of[np.maximum(ids, 1) - 1] + 1, 0)
+    np.divide(out["proper_time"], np.float32(per_code), out=out["proper_time"])
 
 
 def copy_film(film, out: dict, height: int, width: int, *, origin: float, per_code: float, float64: bool,

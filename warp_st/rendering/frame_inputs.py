@@ -16,7 +16,9 @@ keep must live where the database lives: on the scene's cached
   every plane on each call (visits once per kernel thread), and only ``overflow`` is
   reset. A film is taken out of the database while a render uses it, so two renders
   at once never share one (the second allocates its own); at most one idle film per
-  database is kept (the most recent shape).
+  database is kept (the most recent shape). A float32 render's film has no planes of
+  its own (``into_image``): the kernel writes the Image's planes
+  (``film_planes.film_into``), its times as absolute time codes.
 - ``image_planes``: the returned Image's planes (~52 bytes a pixel), carved from one
   block of MAX_BLOCKS per database. A block is reused only when no plane of it is
   alive any more (its reference count says so: every plane is a view whose base is the
@@ -25,7 +27,8 @@ keep must live where the database lives: on the scene's cached
   An Image kept by the caller keeps its block; the others are freed with the database.
 
 Idle memory: only the database that served a scene's last render keeps a film and
-blocks (``keep_only``): per scene about 48 + 2 x 52 bytes a pixel of its last frame size.
+blocks (``keep_only``): per scene about 2 x 52 bytes a pixel of its last frame size, and
+48 more for a float64 render's film (a float32 film holds no planes).
 """
 from __future__ import annotations
 
@@ -80,20 +83,24 @@ def structs(db, key: tuple, make):
     return value
 
 
-def take_film(db, k, n_pix: int, sample_slots: int):
+def take_film(db, k, n_pix: int, sample_slots: int, into_image: bool = False):
     """A film of ``n_pix`` pixels (``sample_slots`` Cryptomatte sample ids) for kernels ``k``:
     the database's idle one when it has this shape, else a new one. Its ``overflow`` is 0;
-    every other plane holds whatever the last render wrote (the kernel overwrites it all)."""
-    key = (id(k), n_pix, sample_slots)
+    every other plane holds whatever the last render wrote (the kernel overwrites it all).
+    ``into_image``: a film without planes of its own, for ``film_planes.film_into``."""
+    key = (id(k), n_pix, sample_slots, into_image)
     with _lock:
         film = db.films.pop(key, None)
     if film is None:
         film = k.Film()
-        film.rgba = wp.empty(n_pix, dtype=k.vec4, device="cpu")
+        rows = 0 if into_image else n_pix
+        film.rgba = wp.empty(rows, dtype=k.vec4, device="cpu")
         for name in ("depth", "event_time", "proper_time", "doppler", "source_time"):
-            setattr(film, name, wp.empty(n_pix, dtype=k.scalar, device="cpu"))
-        film.object_id = wp.empty(n_pix, dtype=wp.int32, device="cpu")
-        film.bounces = wp.empty(n_pix, dtype=wp.int32, device="cpu")
+            setattr(film, name, wp.empty(rows, dtype=k.scalar, device="cpu"))
+        film.object_id = wp.empty(rows, dtype=wp.int32, device="cpu")
+        film.bounces = wp.empty(rows, dtype=wp.int32, device="cpu")
+        film.event_code = wp.empty(0, dtype=wp.float64, device="cpu")
+        film.source_code = wp.empty(0, dtype=wp.float64, device="cpu")
         film.sample_id = wp.empty(sample_slots, dtype=wp.int32, device="cpu")
         film.visits = wp.empty(-(-n_pix // PIXELS_PER_THREAD), dtype=wp.int32, device="cpu")
         film.overflow = wp.zeros(1, dtype=wp.int32, device="cpu")

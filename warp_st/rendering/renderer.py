@@ -14,7 +14,6 @@ import dataclasses
 import functools
 import math
 import os
-import threading
 import time
 from dataclasses import dataclass
 
@@ -25,13 +24,13 @@ from warp_st.core.limits import resolve_max_memory
 from warp_st.core.scene import CameraState, Scene, SceneError
 from warp_st.core.thread_pool import each_on_threads
 from warp_st.kernels.layout import PRIMITIVES
-from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
 from warp_st.output.cryptomatte import image_layers, resolve_layers
 from warp_st.output.film import Image
 from warp_st.rendering import database_cache, frame_inputs
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
 from warp_st.rendering.database_build import build_database
-from warp_st.rendering.film_planes import copy_film
+from warp_st.rendering.film_planes import copy_film, film_into, finish_in_place
+from warp_st.rendering.launches import tile_launches
 from warp_st.rendering.frame_inputs import camera_key
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
@@ -141,6 +140,11 @@ class Renderer:
     A renderer given either builds a database of its own, never shared through the
     scene's cache.
     """
+
+    #: A float32 render's kernel writes the Image's planes itself (``film_planes.film_into``);
+    #: False copies them out of a film of its own instead, as float64 renders do (the
+    #: tests' twin of the kernel's time codes).
+    _film_into = True
 
     def __init__(
         self,
@@ -500,7 +504,15 @@ class Renderer:
         shd, kcam = frame_inputs.structs(self.database, key, make_structs)
         n_pix = self.width * self.height
         frame_inputs.keep_only(database_cache.for_scene(self.scene).databases, self.database)
-        film_key, film = frame_inputs.take_film(self.database, k, n_pix, n_pix * self.samples if self.cryptomatte else 0)
+        # A float32 kernel writes the Image's planes itself (film_planes.film_into); a float64
+        # one its own film's, copied out after (copy_film).
+        into_image = self.precision == Precision.FLOAT32 and self._film_into
+        film_key, film = frame_inputs.take_film(self.database, k, n_pix, n_pix * self.samples if self.cryptomatte else 0,
+                                                into_image)
+        per_code = float(self.scene.light_speed)  # the kernels' times are lab times, the Image's time codes (§3.1)
+        out = frame_inputs.image_planes(self.database, self.height, self.width)
+        if into_image:
+            film_into(k, film, out, origin=float(cam.time) / per_code, per_code=per_code)
         tiles = [(o, min(TILE_PIXELS, n_pix - o)) for o in range(0, n_pix, TILE_PIXELS)]
 
         kernel = k.pixels(bool(self.scene.lights))  # without lights: the kernel that casts no shadow rays
@@ -513,7 +525,7 @@ class Renderer:
         kernel_seconds = time.perf_counter() - t_kernel
         if film.overflow.numpy()[0]:
             raise RuntimeError("BVH traversal stack overflow: the image would be wrong (please report)")
-        image = self._image(film, cam, frame, n_threads)  # copies every plane: the film is reused
+        image = self._image(film, out, into_image, cam, frame, n_threads)
         self.stats.last_mean_visits = frame_inputs.film_visits(film, n_pix)
         frame_inputs.give_back(self.database, film_key, film)
         self.stats.last_kernel_seconds = kernel_seconds
@@ -521,14 +533,19 @@ class Renderer:
         self.stats.rays = n_pix
         return image
 
-    def _image(self, film, cam: CameraState, frame: float, threads: int = 1) -> Image:
+    def _image(self, film, out: dict, into_image: bool, cam: CameraState, frame: float, threads: int = 1) -> Image:
+        """The Image of planes ``out`` (``frame_inputs.image_planes``): written by the kernel
+        (``into_image``) and finished in place, else copied out of ``film`` (reused by the next
+        render)."""
         h, w = self.height, self.width
-        out = frame_inputs.image_planes(self.database, h, w)  # every plane copied out of the (reused) film
-        # The kernels' times are lab times; the image's are time codes (lab / the light speed, §3.1).
         per_code = float(self.scene.light_speed)
         origin = float(cam.time) / per_code
-        lows = copy_film(film, out, h, w, origin=origin, per_code=per_code,
-                         float64=self.precision == Precision.FLOAT64, object_of=self.object_of, threads=threads)
+        if into_image:
+            finish_in_place(out, per_code=per_code, object_of=self.object_of)
+            lows = {}
+        else:
+            lows = copy_film(film, out, h, w, origin=origin, per_code=per_code,
+                             float64=self.precision == Precision.FLOAT64, object_of=self.object_of, threads=threads)
         paths = self.scene.body_paths()
         tables = self.database.shapes if self.primitive == "rigid" else self.mesh
         crypto_planes, layers = image_layers(
@@ -556,37 +573,6 @@ class Renderer:
                 **self.scene.header(),  # metersPerUnit, timeCodesPerSecond
             },
         )
-
-
-def tile_launches(wp, kernel, inputs: list, per_thread: int = PIXELS_PER_THREAD, end: bool = True):
-    """``launch(tile)`` of ``kernel`` over tile = (first item, items): ``inputs``, then the
-    tile's first item (and with ``end`` its end), a kernel thread per ``per_thread`` items
-    (the pixel kernel's layout). Each thread packs its launch once
-    (``wp.launch(record_cmd=True)``) and replays it with the tile's range set, instead of
-    packing the inputs (the structs' ~40 arrays) under the GIL for every tile
-    (docs/design/two-level.md)."""
-    wp.load_module(kernel.module, device="cpu")  # before any thread records: two loading it at once crash
-    recorded = {}  # thread -> [launch, its dim]
-    at = len(inputs)
-
-    def launch(tile):
-        first, count = tile
-        dim = -(-count // per_thread)
-        cmd = recorded.get(threading.get_ident())
-        if cmd is None:
-            cmd = recorded[threading.get_ident()] = [
-                wp.launch(kernel, dim=dim, device="cpu", inputs=[*inputs, first, first + count][:at + 1 + end],
-                          record_cmd=True), dim]
-        else:
-            cmd[0].set_param_at_index(at, first)
-            if end:
-                cmd[0].set_param_at_index(at + 1, first + count)
-            if dim != cmd[1]:
-                cmd[0].set_dim(dim)
-                cmd[1] = dim
-        cmd[0].launch()
-
-    return launch
 
 
 def render_frame(scene: Scene, *, frame=None, **options) -> Image:

@@ -1,0 +1,81 @@
+"""A float32 render's kernel writes the Image's planes itself (film_planes.film_into).
+
+Law: every plane is bit for bit what copying a film of the kernel's own out of it gives
+(``Renderer._film_into = False``: film_planes.copy_film, whose time codes are NumPy's
+``output.film.quantize_relative``, the kernel's ``time_code`` twin) — with mirrors and two
+lights, with a stage of the physical light speed (lab time per time code != 1), with an
+animated body's pieces mapped to their object, with several samples per pixel, and at a
+camera time of 1e11 (the absolute times on a float64 grid of 1.5e-5, coarser than the
+relative times' float32 one).
+"""
+import numpy as np
+import pytest
+
+import warp_st
+from warp_st.rendering.renderer import Renderer
+
+from animation_stages import HEADER, orbit_degrees, write
+
+ROOT = warp_st.__file__.rsplit("/warp_st/", 1)[0]
+PLANES = ("rgba", "depth", "event_time", "source_time", "proper_time", "doppler", "object_id", "bounces")
+
+_SPINNING = HEADER + f'''def DistantLight "Sun"
+{{
+    float inputs:intensity = 2.5
+    float3 xformOp:rotateXYZ = (-50, 30, 0)
+    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
+}}
+def Cube "Floor"
+{{
+    double size = 1
+    double3 xformOp:translate = (0, -1.5, -2)
+    double3 xformOp:scale = (14, 0.2, 10)
+    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
+}}
+def Xform "Rod" (prepend apiSchemas = ["SpacetimeBodyAPI"])
+{{
+    double xformOp:rotateY.timeSamples = {{ 0: 0, 100: {orbit_degrees(0.7, 2.0, 100.0)!r} }}
+    uniform token[] xformOpOrder = ["xformOp:rotateY"]
+    def Cube "Bar"
+    {{
+        double size = 1
+        double3 xformOp:scale = (4, 0.4, 0.4)
+        uniform token[] xformOpOrder = ["xformOp:scale"]
+    }}
+}}
+'''
+
+
+def _scene(tmp_path, case):
+    if case == "spinning":
+        return warp_st.load(write(tmp_path, "spinning.usda", _SPINNING))
+    return warp_st.load(f"{ROOT}/usd_scenes/{case}")
+
+
+@pytest.mark.parametrize("case,frame,options", [
+    ("mirrors/flanges_coupled.usda", 0.0, {}),
+    ("relativistic_parade.usda", 0.0, {"samples": 4}),
+    ("thesis/colour_cube.usda", 0.0, {}),
+    ("thesis/sphere_and_cubes.usda", 1.0e11, {}),
+    ("spinning", 40.0, {}),
+])
+def test_the_kernels_own_planes_are_the_copied_film(tmp_path, monkeypatch, case, frame, options):
+    scene = _scene(tmp_path, case)
+    into = Renderer(scene, frames=[frame], width=96, height=64, **options)
+    assert into.precision.value == "float32"
+    if case == "thesis/colour_cube.usda":
+        assert float(scene.light_speed) != 1.0  # time codes are lab time / the light speed
+    if case == "spinning":
+        assert into.object_of is not None  # the pieces' ids become the rod's
+    a = into.render(frame)
+    monkeypatch.setattr(Renderer, "_film_into", False)
+    b = Renderer(scene, frames=[frame], width=96, height=64, **options).render(frame)
+    for name in PLANES:
+        pa, pb = getattr(a, name), getattr(b, name)
+        assert pa.dtype == pb.dtype and pa.shape == pb.shape, name
+        assert pa.tobytes() == pb.tobytes(), f"{name}: {np.count_nonzero(pa != pb)} values differ"
+    hit = a.object_id > 0
+    assert hit.any() and (~hit).any() and np.isfinite(a.event_time[hit]).all()
+    if frame > 1e10:
+        assert np.abs(a.event_time[hit] - frame).max() > 0  # times about the camera's, not 0
+    assert a.extra.keys() == b.extra.keys()
