@@ -14,41 +14,16 @@ import pytest
 import warp_st
 from warp_st.rendering.renderer import Renderer
 
-from animation_stages import HEADER, orbit_degrees, write
+from animation_stages import write
+from test_shared_pieces import STAGES  # its spinning rod: an animated body's pieces
 
 ROOT = warp_st.__file__.rsplit("/warp_st/", 1)[0]
 PLANES = ("rgba", "depth", "event_time", "source_time", "proper_time", "doppler", "object_id", "bounces")
 
-_SPINNING = HEADER + f'''def DistantLight "Sun"
-{{
-    float inputs:intensity = 2.5
-    float3 xformOp:rotateXYZ = (-50, 30, 0)
-    uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
-}}
-def Cube "Floor"
-{{
-    double size = 1
-    double3 xformOp:translate = (0, -1.5, -2)
-    double3 xformOp:scale = (14, 0.2, 10)
-    uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
-}}
-def Xform "Rod" (prepend apiSchemas = ["SpacetimeBodyAPI"])
-{{
-    double xformOp:rotateY.timeSamples = {{ 0: 0, 100: {orbit_degrees(0.7, 2.0, 100.0)!r} }}
-    uniform token[] xformOpOrder = ["xformOp:rotateY"]
-    def Cube "Bar"
-    {{
-        double size = 1
-        double3 xformOp:scale = (4, 0.4, 0.4)
-        uniform token[] xformOpOrder = ["xformOp:scale"]
-    }}
-}}
-'''
-
 
 def _scene(tmp_path, case):
     if case == "spinning":
-        return warp_st.load(write(tmp_path, "spinning.usda", _SPINNING))
+        return warp_st.load(write(tmp_path, "spinning.usda", STAGES["spinning"]))
     return warp_st.load(f"{ROOT}/usd_scenes/{case}")
 
 
