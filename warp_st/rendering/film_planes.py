@@ -39,6 +39,8 @@ def film_into(k, film, out: dict, *, origin: float, per_code: float) -> None:
              "object_id": wp.int32, "bounces": wp.int32, "event_code": wp.float64, "source_code": wp.float64}
     for field, plane in _INTO:
         a = out[plane]
+        if getattr(film, field).ptr == a.ctypes.data and getattr(film, field).shape[0] == a.shape[0] * a.shape[1]:
+            continue  # the last render's planes again (a reused block)
         # object_id and bounces are uint32 planes written as int32 (ids and counts < 2^31)
         setattr(film, field, wp.array(ptr=a.ctypes.data, shape=(a.shape[0] * a.shape[1],), dtype=types[field],
                                       device="cpu"))
@@ -52,7 +54,8 @@ def finish_in_place(out: dict, *, per_code: float, object_of=None) -> None:
     if object_of is not None:
         ids = out["object_id"]
         ids[...] = np.where(ids > 0, object_of[np.maximum(ids, 1) - 1] + 1, 0)
-    np.divide(out["proper_time"], np.float32(per_code), out=out["proper_time"])
+    if per_code != 1.0:  # x / 1 is x, bit for bit
+        np.divide(out["proper_time"], np.float32(per_code), out=out["proper_time"])
 
 
 def copy_film(film, out: dict, height: int, width: int, *, origin: float, per_code: float, float64: bool,
