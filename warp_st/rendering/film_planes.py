@@ -24,7 +24,7 @@ __all__ = ["copy_film", "film_into", "finish_in_place"]
 _TIMES = (("spacetime.eventTime", "event_time"), ("spacetime.sourceTime", "source_time"))
 
 
-#: The Image's planes the kernel writes through the film, by film field: (plane, its dtype there).
+#: The Image's planes the kernel writes through the film: (film field, Image plane).
 _INTO = (("rgba", "rgba"), ("depth", "depth"), ("proper_time", "proper_time"), ("doppler", "doppler"),
          ("object_id", "object_id"), ("bounces", "bounces"), ("event_code", "event_time"),
          ("source_code", "source_time"))

@@ -30,8 +30,8 @@ from warp_st.rendering import database_cache, frame_inputs
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
 from warp_st.rendering.database_build import build_database
 from warp_st.rendering.film_planes import copy_film, film_into, finish_in_place
-from warp_st.rendering.launches import tile_launches
 from warp_st.rendering.frame_inputs import camera_key
+from warp_st.rendering.launches import tile_launches
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
 from warp_st.spacetime.animation import animated_bodies, animation_cuts, piece_count
