@@ -168,25 +168,22 @@ class MeshQueries:
         return time.perf_counter() - t0
 
     def query(self, threads: int) -> float:
-        return self.run(self.kernel, [self.mesh.id, self.origins, self.dirs, self.face, self.t], threads)
+        return self.run(self.replayed(self.kernel, [self.mesh.id, self.origins, self.dirs, self.face, self.t]), threads)
 
-    def run(self, kernel_or_launch, inputs, threads: int) -> float:
-        """Seconds to launch ``kernel`` (its ``inputs``, then a tile's first ray) on every
-        tile, in turn or on 2 threads taking the next tile as the renderer's do
-        (``each_on_threads``), each thread replaying its recorded launch as the renderer's
-        tiles do (``tile_launches``); ``inputs`` None: ``kernel_or_launch`` is
-        ``launch(tile)`` itself. Wall time, or with ``--clock cpu`` the process's CPU
-        time (``CLOCK``)."""
-        from warp_st.core.thread_pool import each_on_threads
+    def replayed(self, kernel, inputs):
+        """``launch(tile)`` of ``kernel`` (``inputs``, then the tile's first ray), each thread
+        replaying its recorded launch as the renderer's tiles do (``launches.tile_launches``)."""
         from warp_st.rendering.launches import tile_launches
 
-        if inputs is None:
-            launch = kernel_or_launch
-        else:
-            replay = tile_launches(self.wp, kernel_or_launch, inputs, per_thread=1, end=False)
+        replay = tile_launches(self.wp, kernel, inputs, per_thread=1, end=False)
+        return lambda tile: replay((tile[0], tile[1] - tile[0]))
 
-            def launch(tile):
-                replay((tile[0], tile[1] - tile[0]))
+    def run(self, launch, threads: int) -> float:
+        """Seconds to call ``launch(tile)`` on every tile, in turn or on 2 threads taking
+        the next tile as the renderer's do (``each_on_threads``; wall time, or with
+        ``--clock cpu`` the process's CPU time: ``CLOCK``)."""
+        from warp_st.core.thread_pool import each_on_threads
+
         t0 = CLOCK[0]()
         each_on_threads(launch, self.tiles, threads)
         return CLOCK[0]() - t0
@@ -231,7 +228,7 @@ class EmbreeQueries:
             r = self.scene.run(self.origins[a:b], self.dirs[a:b], output=1)
             self.face[a:b] = np.where(r["geomID"] >= 0, r["primID"], -1)
 
-        return self.mesh.run(launch, None, threads)
+        return self.mesh.run(launch, threads)
 
 
 def _mesh_kernel(wp):
@@ -306,7 +303,7 @@ def closest_hits(r, geo, mesh, origin_event, label, args, log, finite=1):
             wp.zeros(n, dtype=wp.int32, device="cpu")]
 
     def ours(threads):
-        return mesh.run(r.kernels.cast_rays, [geo, outs[0], mesh.dirs, finite, outs[1], outs[2], outs[3]], threads)
+        return mesh.run(mesh.replayed(r.kernels.cast_rays, [geo, outs[0], mesh.dirs, finite, *outs[1:]]), threads)
 
     ours(2)
     embree = EmbreeQueries.create(mesh, log)
