@@ -122,3 +122,32 @@ def test_the_cache_lives_no_longer_than_its_scene():
     del scene
     gc.collect()
     assert ref() is None, "a cache entry keeps its scene alive"
+
+
+def test_a_repeated_call_takes_its_renderer_again(parade, monkeypatch):
+    """warp_st.render with the frame and options of a recent call makes no Renderer (the
+    scene keeps it detached: database_cache.SceneCache.renderer) and returns the same
+    image bit for bit; other options make one; a kept renderer whose database has left
+    the cache is dropped, and the call makes a new one."""
+    kw = dict(frame=0, width=48, height=27)
+    first = warp_st.render(parade, **kw)
+    made = []
+    init = Renderer.__init__
+
+    def counted(self, *args, **kwargs):
+        made.append(kwargs)
+        init(self, *args, **kwargs)
+
+    monkeypatch.setattr(Renderer, "__init__", counted)
+    n = database_cache.builds()
+    again = warp_st.render(parade, **kw)
+    assert not made, "the second call made a renderer"
+    assert same(first, again) and database_cache.builds() == n
+    assert again.metadata == first.metadata
+    warp_st.render(parade, frame=0, width=48, height=27, max_depth=1)
+    assert len(made) == 1
+    database_cache.for_scene(parade).databases.clear()  # as if evicted
+    n = database_cache.builds()
+    evicted = warp_st.render(parade, **kw)
+    assert len(made) == 2 and database_cache.builds() == n + 1
+    assert same(first, evicted)

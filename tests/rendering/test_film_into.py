@@ -49,6 +49,8 @@ def test_the_kernels_own_planes_are_the_copied_film(tmp_path, monkeypatch, case,
         pa, pb = getattr(a, name), getattr(b, name)
         assert pa.dtype == pb.dtype and pa.shape == pb.shape, name
         assert pa.tobytes() == pb.tobytes(), f"{name}: {np.count_nonzero(pa != pb)} values differ"
+    for image in (a, b):  # the kernel counts the covered pixels per thread (frame_inputs.film_covered)
+        assert image.metadata["coverage"] == f"{np.count_nonzero(image.object_id)}/{image.object_id.size}"
     hit = a.object_id > 0
     assert hit.any() and (~hit).any() and np.isfinite(a.event_time[hit]).all()
     if frame > 1e10:

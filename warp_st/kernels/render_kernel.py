@@ -131,6 +131,7 @@ def _make_render(scalar, k, trace, Geometry):
         bounces: wp.array(dtype=wp.int32)
         sample_id: wp.array(dtype=wp.int32)  # Cryptomatte: 1 + the triangle each sample hits first, 0: none; empty: off
         visits: wp.array(dtype=wp.int32)  # node visits per kernel thread (its PIXELS_PER_THREAD pixels), not per pixel
+        covered: wp.array(dtype=wp.int32)  # per kernel thread: its pixels whose AOV ray hit (object id > 0)
         overflow: wp.array(dtype=wp.int32)
         # The Image's own time planes (float64 time codes, absolute), written instead of
         # event_time / source_time when not empty: ``time_code`` of the relative lab times.
@@ -377,6 +378,7 @@ def _make_render(scalar, k, trace, Geometry):
             first = offset + wp.tid() * PIXELS_PER_THREAD
             last = wp.min(first + PIXELS_PER_THREAD, end)
             thread_visits = int(0)
+            thread_covered = int(0)
             n_next = pixel_direction(cam, first % cam.width, first / cam.width)
             for pixel in range(first, last):
                 px = pixel % cam.width
@@ -502,7 +504,9 @@ def _make_render(scalar, k, trace, Geometry):
                     )
                 film.doppler[pixel] = dop
                 film.object_id[pixel] = body + 1
+                thread_covered += 1
             film.visits[first / PIXELS_PER_THREAD] = thread_visits  # tiles start at multiples of PIXELS_PER_THREAD
+            film.covered[first / PIXELS_PER_THREAD] = thread_covered
 
         return render_pixels
 

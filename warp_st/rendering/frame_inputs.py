@@ -13,7 +13,7 @@ keep must live where the database lives: on the scene's cached
   frozen: a changed one is another object with other databases).
 - ``take_film`` / ``give_back``: the film (the kernel's output planes, ~48 bytes a
   pixel) of the last call, reused without zeroing: the kernel writes every pixel of
-  every plane on each call (visits once per kernel thread), and only ``overflow`` is
+  every plane on each call (visits and covered pixels once per kernel thread), and only ``overflow`` is
   reset. A film is taken out of the database while a render uses it, so two renders
   at once never share one (the second allocates its own); at most one idle film per
   database is kept (the most recent shape). A float32 render's film has no planes of
@@ -42,7 +42,7 @@ from warp_st.core.scene import CameraState
 from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
 
 __all__ = ["MAX_STRUCTS", "MAX_BLOCKS", "camera_key", "structs", "take_film", "give_back", "film_visits",
-           "image_planes", "keep_only"]
+           "film_covered", "image_planes", "keep_only"]
 
 #: Shading / Camera struct pairs kept per database (a sequence's frames alternate with a
 #: warm frame in the benchmarks; a sweep of options a few).
@@ -103,6 +103,7 @@ def take_film(db, k, n_pix: int, sample_slots: int, into_image: bool = False):
         film.source_code = wp.empty(0, dtype=wp.float64, device="cpu")
         film.sample_id = wp.empty(sample_slots, dtype=wp.int32, device="cpu")
         film.visits = wp.empty(-(-n_pix // PIXELS_PER_THREAD), dtype=wp.int32, device="cpu")
+        film.covered = wp.empty(-(-n_pix // PIXELS_PER_THREAD), dtype=wp.int32, device="cpu")
         film.overflow = wp.zeros(1, dtype=wp.int32, device="cpu")
     else:
         film.overflow.numpy()[0] = 0
@@ -119,6 +120,12 @@ def give_back(db, key, film) -> None:
 def film_visits(film, n_pix: int) -> float:
     """Mean node visits per pixel of the last render into ``film`` (the kernel sums them per thread)."""
     return float(film.visits.numpy().sum(dtype=np.int64)) / n_pix if n_pix else 0.0
+
+
+def film_covered(film) -> int:
+    """Pixels of the last render into ``film`` whose object id is not 0 (the kernel counts
+    them per thread): the Image's coverage without a pass over its id plane."""
+    return int(film.covered.numpy().sum(dtype=np.int64))
 
 
 def image_planes(db, height: int, width: int) -> dict:

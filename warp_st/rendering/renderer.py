@@ -459,6 +459,21 @@ class Renderer:
             "searchlight": self.searchlight,
         }
 
+    def detached(self) -> "Renderer":
+        """A copy without its scene, to be kept in the scene's own cache (an entry must not
+        keep its scene alive); ``attached`` makes it a renderer again."""
+        copy = object.__new__(Renderer)
+        copy.__dict__.update(self.__dict__, scene=None)
+        return copy
+
+    def attached(self, scene: Scene) -> "Renderer":
+        """A renderer of ``scene`` (the one this detached renderer was made for) sharing
+        this one's database and frames, with stats of its own (nothing built)."""
+        copy = object.__new__(Renderer)
+        copy.__dict__.update(self.__dict__, scene=scene,
+                             stats=dataclasses.replace(self.stats, database_built=False))
+        return copy
+
     # -- per frame -------------------------------------------------------------
 
     def render(self, frame=None, *, threads: int | None = None) -> Image:
@@ -564,7 +579,7 @@ class Renderer:
                 "stage": str(self.scene.source),
                 "camera": str(self.camera_path),
                 "lightSpeed": self._frame_light_speed(cam).value,
-                "coverage": f"{np.count_nonzero(out['object_id'])}/{out['object_id'].size}",
+                "coverage": f"{frame_inputs.film_covered(film)}/{out['object_id'].size}",
                 "maxDepth": str(self.max_depth),
                 "samples": str(self.samples),
                 "shutter": repr(self.shutter),
@@ -580,6 +595,28 @@ def render_frame(scene: Scene, *, frame=None, **options) -> Image:
 
     What the render builds stays cached on ``scene`` while the scene lives, so a second
     call with the same options and frames builds nothing (``database_cache``;
-    docs/design/database-cache.md)."""
-    renderer = Renderer(scene, frames=None if frame is None else [frame], **options)
+    docs/design/database-cache.md); a call with the frame and options of a recent one
+    takes that call's renderer again (``SceneCache.renderer``)."""
+    key = _call_key(frame, options)
+    cache = database_cache.for_scene(scene)
+    kept = None if key is None else cache.renderer(key)
+    if kept is not None:
+        renderer = kept.attached(scene)
+    else:
+        renderer = Renderer(scene, frames=None if frame is None else [frame], **options)
+        if key is not None:
+            cache.keep_renderer(key, renderer.detached())
     return renderer.render(frame)
+
+
+def _call_key(frame, options: dict):
+    """The renderer cache's key of a call (None: not cached: the measuring options, which
+    build databases of their own, or an option that cannot be hashed)."""
+    if options.get("sweep_fraction") is not None or options.get("adjust_windows") is not None:
+        return None
+    key = (frame, tuple(sorted(options.items())))
+    try:
+        hash(key)
+    except TypeError:
+        return None
+    return key
