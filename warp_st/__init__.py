@@ -37,8 +37,8 @@ def load(source, **kwargs) -> Scene:
 
 
 def render(scene, **kwargs):
-    """Render one frame of ``scene``; see :func:`warp_st.rendering.renderer.render_frame`."""
-    from warp_st.rendering.renderer import render_frame
+    """Render one frame of ``scene``; see :func:`warp_st.rendering.render_call.render_frame`."""
+    from warp_st.rendering.render_call import render_frame
 
     return render_frame(scene, **kwargs)
 

@@ -16,6 +16,7 @@ Laws (docs/spec.md §3):
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -23,6 +24,7 @@ import pytest
 
 from warp_st.core.scene import Body, CameraState, Surface
 from warp_st.rendering.camera import pixel_directions, ray_directions
+from warp_st.rendering.frame_inputs import lens_key
 from warp_st.rendering.renderer import Renderer
 from warp_st.testing import synthetic_scene
 
@@ -104,3 +106,44 @@ def test_the_kernel_traces_these_rays(velocity, decoupled):
 def test_an_unknown_frame_is_refused():
     with pytest.raises(ValueError, match="frame must be one of"):
         pixel_directions(_camera(), W, H, frame="world")
+
+
+
+@pytest.mark.parametrize("velocity, decoupled", [((0.0, 0.0, 0.0), False), ((0.15, 0.05, -0.25), False),
+                                                 ((0.15, 0.05, -0.25), True)],
+                         ids=["rest", "moving", "moving_decoupled"])
+def test_one_direction_table_per_lens(velocity, decoupled):
+    """The pixel kernel reads its AOV rays' directions from a table made once per lens
+    (rendering.camera.camera_rays, kept on the database by frame_inputs.lens_key): the
+    float64 pinhole rounded to float32 (then aberrated in float32 when moving), row by
+    row. Another frame of the same lens (the camera at a later time) reads the same table."""
+    cam = _camera(velocity, decoupled)
+    r = Renderer(_plane_scene(cam), frames=[cam.time, cam.time + 2.0], width=W, height=H)
+    r.render(cam.time)
+    (table,) = r.database.directions.values()
+    got = table.numpy().reshape(H, W, 3)
+    if not any(velocity):
+        # one rounding of the float64 pinhole to float32 apart: equal but where the float64
+        # normalisation's last bit (Warp's order of operations, not NumPy's) crosses a tie
+        want = pixel_directions(cam, W, H, frame="lab").astype(np.float32)
+        assert np.abs(got - want).max() <= np.spacing(np.float32(1.0)) and (got == want).mean() > 0.999
+    else:  # aberrated in float32 (the kernel's scalar): a few float32 ulps of unit vectors
+        np.testing.assert_allclose(got, pixel_directions(cam, W, H, frame="lab"), rtol=0, atol=4e-7)
+    r.render(cam.time + 2.0)
+    assert len(r.database.directions) == 1 and next(iter(r.database.directions.values())) is table
+    assert len(r.database.frame_structs) == 2  # the two frames' cameras, one table
+
+
+def test_the_lens_key_holds_what_the_directions_depend_on():
+    cam = _camera((0.15, 0.05, -0.25))
+    key = lens_key("float32", cam, W, H)
+    assert lens_key("float32", dataclasses.replace(cam, time=9.0, position=np.ones(3)), W, H) == key
+    for other in (dataclasses.replace(cam, rotation=cam.rotation[[1, 0, 2]]),
+                  dataclasses.replace(cam, velocity=np.zeros(3)), dataclasses.replace(cam, decoupled=True),
+                  dataclasses.replace(cam, focal_length=30.0), dataclasses.replace(cam, horizontal_aperture=30.0),
+                  dataclasses.replace(cam, horizontal_aperture_offset=0.0),
+                  dataclasses.replace(cam, vertical_aperture_offset=0.0)):
+        assert lens_key("float32", other, W, H) != key
+    assert lens_key("float32", cam, W + 1, H) != key and lens_key("float64", cam, W, H) != key
+    # the authored vertical aperture is not one: the image's aspect sets it
+    assert lens_key("float32", dataclasses.replace(cam, vertical_aperture=10.0), W, H) == key

@@ -44,9 +44,10 @@ class Kernels:
         else:
             Geometry, trace, prepare, leaf = make_trace(scalar, primitive)
         self.Geometry = Geometry
-        self.Shading, self.Camera, self.Film, self.render_pixels, self._make_unlit = _make_render(
-            scalar, self, trace, Geometry)
+        self.Shading, self.Camera, self.Film, self.render_pixels, self._make_unlit, self._make_camera_rays = (
+            _make_render(scalar, self, trace, Geometry))
         self._unlit = None
+        self._camera_rays = None
         self._probe_parts = (scalar, self.vec3, self.vec4, Geometry, prepare, leaf)
         self._probe = None
 
@@ -58,6 +59,13 @@ class Kernels:
         if self._unlit is None:
             self._unlit = self._make_unlit()
         return self._unlit
+
+    @property
+    def camera_rays(self):
+        """Kernel: the lab direction of every pixel centre's ray (the Camera's ``dirs``)."""
+        if self._camera_rays is None:
+            self._camera_rays = self._make_camera_rays()
+        return self._camera_rays
 
     @property
     def cast_rays(self):
@@ -118,6 +126,9 @@ def _make_render(scalar, k, trace, Geometry):
         # column and (y_ndc v_ap / 2 + v_off) / focal per row (``pixel_direction``).
         col: wp.array(dtype=wp.float64)
         row: wp.array(dtype=wp.float64)
+        # The lab direction of every pixel centre's ray (``pixel_direction``, row by row):
+        # the AOV rays' table, made once per lens by ``camera_rays`` (rendering/camera.py).
+        dirs: wp.array(dtype=vec3)
 
     @wp.struct
     class Film:
@@ -379,14 +390,10 @@ def _make_render(scalar, k, trace, Geometry):
             last = wp.min(first + PIXELS_PER_THREAD, end)
             thread_visits = int(0)
             thread_covered = int(0)
-            n_next = pixel_direction(cam, first % cam.width, first / cam.width)
             for pixel in range(first, last):
                 px = pixel % cam.width
                 py = pixel / cam.width
-                n = n_next
-                if pixel + 1 < last:  # the next pixel's direction (float64 sqrt and divisions) computed before
-                    # this pixel's trace, which does not wait for it: out-of-order execution overlaps the two
-                    n_next = pixel_direction(cam, (pixel + 1) % cam.width, (pixel + 1) / cam.width)
+                n = cam.dirs[pixel]  # the float64 pinhole's, made before the launch (camera_rays)
                 # Ray 0 is the AOV ray: the pixel centre at the frame's camera time (also the
                 # beauty when there is one sample); rays 1..samples are the jittered samples.
                 # One call site of trace_path, so the compiler inlines it (with a second one it
@@ -510,7 +517,17 @@ def _make_render(scalar, k, trace, Geometry):
 
         return render_pixels
 
-    return Shading, Camera, Film, make_pixels(shade), lambda: make_pixels(no_lights, "render_pixels_unlit")
+    def make_camera_rays():
+        @wp.kernel(enable_backward=False, module="unique")
+        def camera_rays(cam: Camera, out: wp.array(dtype=vec3), first: int):
+            """``out[pixel]``: ``pixel_direction`` of the pixel centres from ``first`` on, row by row."""
+            pixel = first + wp.tid()
+            out[pixel] = pixel_direction(cam, pixel % cam.width, pixel / cam.width)
+
+        return camera_rays
+
+    return (Shading, Camera, Film, make_pixels(shade), lambda: make_pixels(no_lights, "render_pixels_unlit"),
+            make_camera_rays)
 
 
 @functools.lru_cache(maxsize=None)

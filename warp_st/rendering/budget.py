@@ -49,8 +49,9 @@ BYTES_PER_TET = int(
 )
 #: Vertices: events float64 on the host, float32 on the device, normals float64 host + float32 device.
 BYTES_PER_VERTEX = 4 * 8 + 4 * 4 + 3 * 8 + 3 * 4
-#: The film (rgba + 5 scalars + 3 int32 on the device) and the Image (rgba f32, two f64 times, 5 x 4 bytes).
-BYTES_PER_PIXEL = (4 * 4 + 5 * 4 + 3 * 4) + (4 * 4 + 2 * 8 + 5 * 4)
+#: The film (rgba + 5 scalars + 3 int32 on the device), the Image (rgba f32, two f64 times,
+#: 5 x 4 bytes) and the pixel direction tables (two float32 vec3, frame_inputs.MAX_DIRECTIONS).
+BYTES_PER_PIXEL = (4 * 4 + 5 * 4 + 3 * 4) + (4 * 4 + 2 * 8 + 5 * 4) + 2 * 3 * 4
 #: Per triangle of the rigid (two-level) database, which neither speed, lifetime nor
 #: frame span changes, no body sharing its shape (rendering.database_bytes counts the
 #: real one): the shading tables, one copy the host and the device share (normal

@@ -46,7 +46,7 @@ Render calls keep an idle film, up to two blocks of Image planes and a few struc
 on each database (``rendering.frame_inputs``; docs/design/render-call.md).
 
 Renderers: ``warp_st.render`` keeps the renderer of each of the last MAX_RENDERERS
-(frame, options) pairs of a scene, detached from the scene (``Renderer.detached``: no
+(frame, options) pairs of a scene, detached from the scene (``render_call.detached``: no
 entry refers to its scene). A call with the same frame and options takes that renderer
 again instead of making a new one (its option checks, windows look-up, memory check and
 database choice: ~0.4 ms a call after a warm frame), while its database is still one of
@@ -110,6 +110,7 @@ class Database:
     static: dict = field(default_factory=dict)
     geometry: OrderedDict = field(default_factory=OrderedDict)
     frame_structs: OrderedDict = field(default_factory=OrderedDict)  # rendering/frame_inputs.py
+    directions: OrderedDict = field(default_factory=OrderedDict)  # pixel direction tables (frame_inputs.py)
     films: dict = field(default_factory=dict)  # its idle film (rendering/frame_inputs.py)
     image_blocks: list = field(default_factory=list)  # the memory of its Images (rendering/frame_inputs.py)
 

@@ -41,12 +41,16 @@ import warp as wp
 from warp_st.core.scene import CameraState
 from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
 
-__all__ = ["MAX_STRUCTS", "MAX_BLOCKS", "camera_key", "structs", "take_film", "give_back", "film_visits",
+__all__ = ["MAX_STRUCTS", "MAX_DIRECTIONS", "MAX_BLOCKS", "camera_key", "lens_key", "structs", "directions", "take_film", "give_back", "film_visits",
            "film_covered", "image_planes", "keep_only"]
 
 #: Shading / Camera struct pairs kept per database (a sequence's frames alternate with a
 #: warm frame in the benchmarks; a sweep of options a few).
 MAX_STRUCTS = 4
+
+#: Pixel direction tables kept per database (``directions``): a fixed lens's every frame
+#: reads one; a second lets two cameras alternate.
+MAX_DIRECTIONS = 2
 
 #: Image blocks kept per database: the caller's latest Image holds one while the next
 #: render fills the other.
@@ -68,19 +72,36 @@ def camera_key(cam: CameraState) -> tuple:
             float(cam.vertical_aperture_offset), str(cam.light_speed), bool(cam.decoupled))
 
 
-def structs(db, key: tuple, make):
-    """The (Shading, Camera) pair of ``key`` on database ``db`` (made by ``make()`` when missing)."""
+def lens_key(precision: str, cam: CameraState, width: int, height: int) -> tuple:
+    """Every value the pixel centres' directions (``camera.camera_rays``) depend on."""
+    return (precision, int(width), int(height), *np.asarray(cam.rotation, dtype=np.float64).reshape(-1).tolist(),
+            *np.asarray(cam.velocity, dtype=np.float64).tolist(), float(cam.focal_length),
+            float(cam.horizontal_aperture), float(cam.horizontal_aperture_offset),
+            float(cam.vertical_aperture_offset), bool(cam.decoupled))
+
+
+def directions(db, key: tuple, make):
+    """The pixel centres' direction table of lens ``key`` (``lens_key``) on database ``db``
+    (made by ``make()`` when missing; MAX_DIRECTIONS kept)."""
+    return _lru(db.directions, key, make, MAX_DIRECTIONS)
+
+
+def _lru(entries, key, make, limit: int):
     with _lock:
-        entries = db.frame_structs
         if key in entries:
             entries.move_to_end(key)
             return entries[key]
     value = make()
     with _lock:
         entries[key] = value
-        while len(entries) > MAX_STRUCTS:
+        while len(entries) > limit:
             entries.popitem(last=False)
     return value
+
+
+def structs(db, key: tuple, make):
+    """The (Shading, Camera) pair of ``key`` on database ``db`` (made by ``make()`` when missing)."""
+    return _lru(db.frame_structs, key, make, MAX_STRUCTS)
 
 
 def take_film(db, k, n_pix: int, sample_slots: int, into_image: bool = False):

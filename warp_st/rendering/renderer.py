@@ -30,7 +30,7 @@ from warp_st.rendering import database_cache, frame_inputs
 from warp_st.rendering.budget import BYTES_PER_PIXEL, MemoryRefusal, check_limits, check_resources, estimate_bytes
 from warp_st.rendering.database_build import build_database
 from warp_st.rendering.film_planes import copy_film, film_into, finish_in_place
-from warp_st.rendering.frame_inputs import camera_key
+from warp_st.rendering.frame_inputs import camera_key, lens_key
 from warp_st.rendering.launches import tile_launches
 from warp_st.rendering.warp_init import init_warp
 from warp_st.spacetime.adaptive import retessellated, sphere_tessellation
@@ -40,7 +40,7 @@ from warp_st.spacetime.reach import motion_reach
 from warp_st.spacetime.rigid import all_exact_quadrics, quadric_body
 from warp_st.spacetime.visibility import union, visibility_windows
 
-__all__ = ["Renderer", "render_frame", "build_database", "RenderStats", "DEFAULT_RESOLUTION", "PRIMITIVES",
+__all__ = ["Renderer", "build_database", "RenderStats", "DEFAULT_RESOLUTION", "PRIMITIVES",
            "TILE_PIXELS", "init_warp"]
 
 
@@ -459,27 +459,12 @@ class Renderer:
             "searchlight": self.searchlight,
         }
 
-    def detached(self) -> "Renderer":
-        """A copy without its scene, to be kept in the scene's own cache (an entry must not
-        keep its scene alive); ``attached`` makes it a renderer again."""
-        copy = object.__new__(Renderer)
-        copy.__dict__.update(self.__dict__, scene=None)
-        return copy
-
-    def attached(self, scene: Scene) -> "Renderer":
-        """A renderer of ``scene`` (the one this detached renderer was made for) sharing
-        this one's database and frames, with stats of its own (nothing built)."""
-        copy = object.__new__(Renderer)
-        copy.__dict__.update(self.__dict__, scene=scene,
-                             stats=dataclasses.replace(self.stats, database_built=False))
-        return copy
-
     # -- per frame -------------------------------------------------------------
 
     def render(self, frame=None, *, threads: int | None = None) -> Image:
         """Render one frame (a USD time code) to an :class:`Image`."""
         from warp_st.rendering.anchor import anchor_step, geometry_anchor
-        from warp_st.rendering.camera import make_camera
+        from warp_st.rendering.camera import camera_rays, make_camera
         from warp_st.rendering.device import make_geometry, make_shading
         from warp_st.rendering.device_rigid import make_rigid_geometry
 
@@ -505,13 +490,18 @@ class Renderer:
         geo = self.database.geometry_for(self.precision.value, tuple(origin.tolist()), make)
         background = self.settings.background or (0.0, 0.0, 0.0)
         light_speed = self._frame_light_speed(cam)
+        n_threads = max(1, int(threads or self.threads))
+
+        def directions(kcam):  # the pixel centres' directions: one table per lens on the database
+            return frame_inputs.directions(self.database, lens_key(self.precision.value, cam, self.width, self.height),
+                                           lambda: camera_rays(k, kcam, n_threads))
 
         def make_structs():
             return (make_shading(k, self.static, self.scene.lights, origin, background, self.max_depth,
                                  doppler_color=self.doppler_color, searchlight=self.searchlight, dome=self.scene.dome,
                                  camera_event=event),
                     make_camera(k, cam, self.width, self.height, light_speed, samples=self.samples,
-                                shutter=self._lab_shutter, origin=event - origin))
+                                shutter=self._lab_shutter, origin=event - origin, directions=directions))
 
         key = (self.precision.value, camera_key(cam), self.width, self.height, light_speed.value, self.samples,
                self._lab_shutter, tuple(float(x) for x in background), self.max_depth, self.doppler_color,
@@ -535,7 +525,6 @@ class Renderer:
         launch = tile_launches(wp, kernel, [geo, shd, kcam, film])
 
         t_kernel = time.perf_counter()
-        n_threads = max(1, int(threads or self.threads))
         each_on_threads(launch, tiles, n_threads)
         kernel_seconds = time.perf_counter() - t_kernel
         if film.overflow.numpy()[0]:
@@ -588,35 +577,3 @@ class Renderer:
                 **self.scene.header(),  # metersPerUnit, timeCodesPerSecond
             },
         )
-
-
-def render_frame(scene: Scene, *, frame=None, **options) -> Image:
-    """Render a single frame (docs/spec.md §5 ``warp_st.render``).
-
-    What the render builds stays cached on ``scene`` while the scene lives, so a second
-    call with the same options and frames builds nothing (``database_cache``;
-    docs/design/database-cache.md); a call with the frame and options of a recent one
-    takes that call's renderer again (``SceneCache.renderer``)."""
-    key = _call_key(frame, options)
-    cache = database_cache.for_scene(scene)
-    kept = None if key is None else cache.renderer(key)
-    if kept is not None:
-        renderer = kept.attached(scene)
-    else:
-        renderer = Renderer(scene, frames=None if frame is None else [frame], **options)
-        if key is not None:
-            cache.keep_renderer(key, renderer.detached())
-    return renderer.render(frame)
-
-
-def _call_key(frame, options: dict):
-    """The renderer cache's key of a call (None: not cached: the measuring options, which
-    build databases of their own, or an option that cannot be hashed)."""
-    if options.get("sweep_fraction") is not None or options.get("adjust_windows") is not None:
-        return None
-    key = (frame, tuple(sorted(options.items())))
-    try:
-        hash(key)
-    except TypeError:
-        return None
-    return key
