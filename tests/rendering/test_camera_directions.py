@@ -113,14 +113,19 @@ def test_an_unknown_frame_is_refused():
                                                  ((0.15, 0.05, -0.25), True)],
                          ids=["rest", "moving", "moving_decoupled"])
 def test_one_direction_table_per_lens(velocity, decoupled):
-    """The pixel kernel reads its AOV rays' directions from a table made once per lens
-    (rendering.camera.camera_rays, kept on the database by frame_inputs.lens_key): the
-    float64 pinhole rounded to float32 (then aberrated in float32 when moving), row by
-    row. Another frame of the same lens (the camera at a later time) reads the same table."""
+    """The pixel kernel computes its AOV rays' directions for a lens seen once, and reads
+    them from a table once the lens is seen again (rendering.camera.camera_rays, kept on
+    the database by frame_inputs.lens_key): the same float64 pinhole, so the same image bit
+    for bit; the table is NumPy's pinhole rounded to float32 (then aberrated in float32
+    when moving), row by row. Another frame of the lens (a later time) reads the same table."""
     cam = _camera(velocity, decoupled)
     r = Renderer(_plane_scene(cam), frames=[cam.time, cam.time + 2.0], width=W, height=H)
-    r.render(cam.time)
+    computed = r.render(cam.time)
+    assert not r.database.directions, "a lens seen once has no table"
+    read = r.render(cam.time)
     (table,) = r.database.directions.values()
+    for name in ("rgba", "depth", "event_time", "proper_time", "doppler", "object_id"):
+        assert getattr(computed, name).tobytes() == getattr(read, name).tobytes(), name
     got = table.numpy().reshape(H, W, 3)
     if not any(velocity):
         # one rounding of the float64 pinhole to float32 apart: equal but where the float64

@@ -127,7 +127,8 @@ def _make_render(scalar, k, trace, Geometry):
         col: wp.array(dtype=wp.float64)
         row: wp.array(dtype=wp.float64)
         # The lab direction of every pixel centre's ray (``pixel_direction``, row by row):
-        # the AOV rays' table, made once per lens by ``camera_rays`` (rendering/camera.py).
+        # the AOV rays' table, made once per lens by ``camera_rays`` (rendering/camera.py);
+        # empty: the kernel computes them (``centre_direction``).
         dirs: wp.array(dtype=vec3)
 
     @wp.struct
@@ -216,6 +217,14 @@ def _make_render(scalar, k, trace, Geometry):
         """``camera_direction`` at pixel (px, py)'s centre, its film coordinates from the
         host's tables (the same float64 operations, so the same bits: no divisions here)."""
         return lens_direction(cam, wp.vec3d(cam.col[px], cam.row[py], wp.float64(-1.0)))
+
+    @wp.func
+    def centre_direction(cam: Camera, pixel: int) -> vec3:
+        """``pixel_direction`` of ``pixel`` (row by row): the lens's table when it has one
+        (``camera_rays``, made before the launch), else the float64 pinhole here."""
+        if cam.dirs.shape[0] > 0:
+            return cam.dirs[pixel]
+        return pixel_direction(cam, pixel % cam.width, pixel / cam.width)
 
     @wp.func
     def four_velocity(v: vec3, gamma: scalar, decoupled: int) -> vec4:
@@ -390,10 +399,14 @@ def _make_render(scalar, k, trace, Geometry):
             last = wp.min(first + PIXELS_PER_THREAD, end)
             thread_visits = int(0)
             thread_covered = int(0)
+            n_next = centre_direction(cam, first)
             for pixel in range(first, last):
                 px = pixel % cam.width
                 py = pixel / cam.width
-                n = cam.dirs[pixel]  # the float64 pinhole's, made before the launch (camera_rays)
+                n = n_next
+                if pixel + 1 < last:  # the next pixel's direction read or computed before this pixel's
+                    # trace, which does not wait for it: out-of-order execution overlaps the two
+                    n_next = centre_direction(cam, pixel + 1)
                 # Ray 0 is the AOV ray: the pixel centre at the frame's camera time (also the
                 # beauty when there is one sample); rays 1..samples are the jittered samples.
                 # One call site of trace_path, so the compiler inlines it (with a second one it

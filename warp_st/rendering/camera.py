@@ -45,14 +45,12 @@ def make_camera(
     shutter: float = 0.0,
     seed: int = 0,
     origin=(0.0, 0.0, 0.0, 0.0),
-    directions=None,
-    threads: int = 1,
 ):
     """Kernel camera. samples > 1 jitters rays in the pixel (a strata x strata grid) and
     in camera time over [t_c, t_c + shutter] (4D anti-aliasing and motion blur). ``origin``:
     the camera event relative to the geometry's anchor (``rendering.anchor``), the rays' origin.
-    ``directions(camera) -> array``: the pixel centres' table (``camera_rays`` of the
-    camera made here, or a cached one of the same lens); None makes it on ``threads`` threads."""
+    Its table of the pixel centres' directions (``dirs``) is empty: the kernel computes
+    them, until ``camera_rays`` makes one."""
     c = k.Camera()
     c.origin = k.vec4(*[float(x) for x in origin])
     c.lab_from_camera = wp.mat33d(*np.asarray(cam.rotation, dtype=np.float64).reshape(-1).tolist())
@@ -83,15 +81,15 @@ def make_camera(
     y_ndc = 1.0 - (np.arange(height, dtype=np.float64) + 0.5) / float(height) * 2.0
     c.col = wp.array((x_ndc * c.h_ap * 0.5 + c.h_off) / c.focal, dtype=wp.float64, device="cpu")
     c.row = wp.array((y_ndc * c.v_ap * 0.5 + c.v_off) / c.focal, dtype=wp.float64, device="cpu")
-    c.dirs = camera_rays(k, c, threads) if directions is None else directions(c)
+    c.dirs = wp.empty(0, dtype=k.vec3, device="cpu")
     return c
 
 
 def camera_rays(k: Kernels, c, threads: int = 1) -> wp.array:
-    """The lab direction of every pixel centre's ray of kernel camera ``c``, row by row:
-    the pixel kernel's float64 pinhole (``pixel_direction``), run once before the render
-    kernels read it (in ``threads`` bands at once). It depends on the lens, orientation,
-    image size and velocity only (``frame_inputs.lens_key``), not on the camera's event."""
+    """The lab direction of every pixel centre's ray of kernel camera ``c``, row by row
+    (its ``dirs``): the pixel kernel's own float64 pinhole (``pixel_direction``), run in
+    ``threads`` bands at once. It depends on the lens, orientation, image size and velocity
+    only (``frame_inputs.lens_key``), not on the camera's event."""
     n = c.width * c.height
     out = wp.empty(n, dtype=k.vec3, device="cpu")
     step = -(-n // max(1, threads))

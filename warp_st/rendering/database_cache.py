@@ -111,6 +111,7 @@ class Database:
     geometry: OrderedDict = field(default_factory=OrderedDict)
     frame_structs: OrderedDict = field(default_factory=OrderedDict)  # rendering/frame_inputs.py
     directions: OrderedDict = field(default_factory=OrderedDict)  # pixel direction tables (frame_inputs.py)
+    lenses: OrderedDict = field(default_factory=OrderedDict)  # lenses seen once, no table yet (frame_inputs.py)
     films: dict = field(default_factory=dict)  # its idle film (rendering/frame_inputs.py)
     image_blocks: list = field(default_factory=list)  # the memory of its Images (rendering/frame_inputs.py)
 

@@ -51,6 +51,8 @@ MAX_STRUCTS = 4
 #: Pixel direction tables kept per database (``directions``): a fixed lens's every frame
 #: reads one; a second lets two cameras alternate.
 MAX_DIRECTIONS = 2
+#: Lenses seen once (no table yet) remembered per database.
+MAX_LENSES = 16
 
 #: Image blocks kept per database: the caller's latest Image holds one while the next
 #: render fills the other.
@@ -81,8 +83,18 @@ def lens_key(precision: str, cam: CameraState, width: int, height: int) -> tuple
 
 
 def directions(db, key: tuple, make):
-    """The pixel centres' direction table of lens ``key`` (``lens_key``) on database ``db``
-    (made by ``make()`` when missing; MAX_DIRECTIONS kept)."""
+    """The pixel centres' direction table of lens ``key`` (``lens_key``) on database ``db``,
+    made by ``make()`` the second time the lens is asked for (MAX_DIRECTIONS kept), None
+    the first time: a lens seen once (a camera turning every frame) costs no table, and its
+    frame's kernel computes the directions itself."""
+    with _lock:
+        if key not in db.directions:
+            if key not in db.lenses:
+                db.lenses[key] = None
+                while len(db.lenses) > MAX_LENSES:
+                    db.lenses.popitem(last=False)
+                return None
+            db.lenses.pop(key)
     return _lru(db.directions, key, make, MAX_DIRECTIONS)
 
 

@@ -492,21 +492,22 @@ class Renderer:
         light_speed = self._frame_light_speed(cam)
         n_threads = max(1, int(threads or self.threads))
 
-        def directions(kcam):  # the pixel centres' directions: one table per lens on the database
-            return frame_inputs.directions(self.database, lens_key(self.precision.value, cam, self.width, self.height),
-                                           lambda: camera_rays(k, kcam, n_threads))
-
         def make_structs():
             return (make_shading(k, self.static, self.scene.lights, origin, background, self.max_depth,
                                  doppler_color=self.doppler_color, searchlight=self.searchlight, dome=self.scene.dome,
                                  camera_event=event),
                     make_camera(k, cam, self.width, self.height, light_speed, samples=self.samples,
-                                shutter=self._lab_shutter, origin=event - origin, directions=directions))
+                                shutter=self._lab_shutter, origin=event - origin))
 
         key = (self.precision.value, camera_key(cam), self.width, self.height, light_speed.value, self.samples,
                self._lab_shutter, tuple(float(x) for x in background), self.max_depth, self.doppler_color,
                self.searchlight, tuple(origin.tolist()))
         shd, kcam = frame_inputs.structs(self.database, key, make_structs)
+        if kcam.dirs.shape[0] == 0:  # the pixel centres' directions: a table once the lens is seen again
+            table = frame_inputs.directions(self.database, lens_key(self.precision.value, cam, self.width, self.height),
+                                            lambda: camera_rays(k, kcam, n_threads))
+            if table is not None:
+                kcam.dirs = table
         n_pix = self.width * self.height
         frame_inputs.keep_only(database_cache.for_scene(self.scene).databases, self.database)
         # A float32 kernel writes the Image's planes itself (film_planes.film_into); a float64
