@@ -140,3 +140,33 @@ def test_bodies_triangles_are_the_calls_in_body_order():
         tables = [None if g is None else id(g.triangles) for g in got]
         groups = first if shared else [i if w is not None else None for i, w in enumerate(want)]
         assert [tables.index(t) for t in tables] == [groups.index(f) for f in groups]
+
+
+def test_bodies_that_differ_in_triangles_or_normals_alone_get_their_own_tables(monkeypatch):
+    """Law: the instance key holds the triangles and the vertex normals, not only the
+    points about the pivot: a copy whose triangles wind the other way, or whose normals
+    are others, computes its own tables (its facet normals point the other way, or its
+    smooth normals are its own), while a true copy (the same arrays) shares."""
+    import dataclasses
+
+    import numpy as np
+
+    from warp_st.core.scene import Body, RenderSettings, Scene
+    from warp_st.spacetime import extrude
+
+    base = _copies().bodies[0]
+    surf = base.surfaces[0]
+
+    def copy(name, shift, **changes):
+        s = dataclasses.replace(surf, prim_path=f"/{name}", points=surf.points + shift, **changes)
+        return Body(f"/{name}", (s,), base.origin + shift, np.zeros(3), 0.0)
+
+    bodies = (base, copy("Same", [4.0, 0.0, 0.0]), copy("Flipped", [8.0, 0.0, 0.0], triangles=surf.triangles[:, ::-1]),
+              copy("Normals", [12.0, 0.0, 0.0], normals=-surf.normals))
+    made = []
+    compute = extrude._body_triangles
+    monkeypatch.setattr(extrude, "_body_triangles", lambda body, *a: made.append(body.prim_path) or compute(body, *a))
+    shapes = rigid_shapes(Scene(source="<copies>", bodies=bodies, lights=(), cameras=(), settings=RenderSettings()))
+    assert sorted(made) == ["/Flipped", "/Normals", "/S0"]
+    rows = [np.flatnonzero(shapes.tri_body == b) for b in range(4)]
+    np.testing.assert_array_equal(shapes.tri_normal[rows[2]], -shapes.tri_normal[rows[0]])

@@ -268,11 +268,12 @@ def bodies_triangles(bodies, materials: list, mat_index: dict, *, shared: bool) 
         return list(pool.map(lambda b: body_triangles(b, materials, mat_index) if b.surfaces else None, bodies))
     parts = {}  # body index -> (A, rest, key)
     made: dict = {}  # key -> the first such body's index, then its triangles
+    seen: dict = {}  # id of an array the surfaces share -> its key bytes (made and hashed once)
     for i, body in enumerate(bodies):
         if body.surfaces:
             A = contraction_matrix(body.velocity, body.decoupled)
             rest = [np.asarray(s.points, dtype=np.float64) - body.origin for s in body.surfaces]
-            parts[i] = (A, rest, _instance_key(body, A, rest))
+            parts[i] = (A, rest, _instance_key(body, A, rest, seen))
             made.setdefault(parts[i][2], i)
     firsts = list(made.values())
     for key, bt in zip(made, pool.map(lambda i: _body_triangles(bodies[i], parts[i][0], materials, mat_index), firsts)):
@@ -295,16 +296,26 @@ def _own_copy(body: Body, shared: BodyTriangles | None, A: np.ndarray, rest: lis
     return dataclasses.replace(shared, rest=own, local=transformed(own, A) + body.origin, tri_material=tri_mat)
 
 
-def _instance_key(body: Body, A: np.ndarray, rest: list) -> tuple:
+def _instance_key(body: Body, A: np.ndarray, rest: list, seen: dict) -> tuple:
     """What ``body_triangles`` computes the shading tables but the materials from, in
     float32: the contraction and each surface's points about the pivot (``rest``),
-    triangles, normals and texture coordinates."""
+    triangles, normals and texture coordinates. ``seen``: the bytes of the surfaces'
+    arrays by id, for arrays instances share (a bytes object caches its hash, so a shared
+    one is hashed once; the arrays outlive the call that fills ``seen``)."""
     def f32(a):
         return None if a is None else np.asarray(a, dtype=np.float64).astype(np.float32).tobytes()
 
+    def shared(a, convert):
+        if a is None:
+            return None
+        if id(a) not in seen:
+            seen[id(a)] = (a, convert(a))  # the array kept beside its bytes: its id stays its own
+        return seen[id(a)][1]
+
     key: list = [A.tobytes()]
     for s, r in zip(body.surfaces, rest):
-        key += [f32(r), np.asarray(s.triangles).tobytes(), f32(s.normals), f32(s.st)]
+        key += [f32(r), shared(s.triangles, lambda a: np.asarray(a).tobytes()), shared(s.normals, f32),
+                shared(s.st, f32)]
     return tuple(key)
 
 

@@ -299,7 +299,11 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
     mat_index: dict = {}
     n_bodies = len(bodies)
     found = _held_triangles(bodies, materials, mat_index, dtype)
-    keys = [None if bt is None else (bt.rest.astype(np.float32).tobytes(), bt.triangles.astype(np.int32).tobytes())
+    tri_bytes: dict = {}  # id of a triangle table instances share -> (it, its bytes): made and hashed once
+    for bt in found:
+        if bt is not None and id(bt.triangles) not in tri_bytes:
+            tri_bytes[id(bt.triangles)] = (bt.triangles, bt.triangles.astype(np.int32).tobytes())
+    keys = [None if bt is None else (bt.rest.astype(np.float32).tobytes(), tri_bytes[id(bt.triangles)][1])
             for bt in found]
     uses: dict = {}
     for key in keys:
