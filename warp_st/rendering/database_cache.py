@@ -63,8 +63,8 @@ from dataclasses import dataclass, field
 
 from warp_st.spacetime.visibility import intervals
 
-__all__ = ["MAX_DATABASES", "MAX_TESSELLATIONS", "MAX_GEOMETRIES", "MAX_WINDOWS", "MAX_RENDERERS", "Database", "SceneCache", "for_scene",
-           "clear", "builds", "covers"]
+__all__ = ["MAX_DATABASES", "MAX_TESSELLATIONS", "MAX_GEOMETRIES", "MAX_WINDOWS", "MAX_RENDERERS", "Database",
+           "SceneCache", "for_scene", "clear", "builds", "covers"]
 
 #: Databases kept per scene (a sequence renders each frame from one database; sweeps of
 #: a few option sets alternate between a few).

@@ -19,6 +19,12 @@ keep must live where the database lives: on the scene's cached
   database is kept (the most recent shape). A float32 render's film has no planes of
   its own (``into_image``): the kernel writes the Image's planes
   (``film_planes.film_into``), its times as absolute time codes.
+- ``directions``: the pixel centres' ray directions of a lens (``camera.camera_rays``),
+  made the second time the lens is asked for and kept per database in an LRU of
+  MAX_DIRECTIONS; the key (``lens_key``) holds the orientation, lens, image size,
+  velocity and precision, not the camera's event, so every frame of a fixed camera reads
+  one table. A cached Camera struct holds its table too (at most MAX_DIRECTIONS +
+  MAX_STRUCTS tables per database).
 - ``image_planes``: the returned Image's planes (~52 bytes a pixel), carved from one
   block of MAX_BLOCKS per database. A block is reused only when no plane of it is
   alive any more (its reference count says so: every plane is a view whose base is the
@@ -41,8 +47,8 @@ import warp as wp
 from warp_st.core.scene import CameraState
 from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
 
-__all__ = ["MAX_STRUCTS", "MAX_DIRECTIONS", "MAX_BLOCKS", "camera_key", "lens_key", "structs", "directions", "take_film", "give_back", "film_visits",
-           "film_covered", "image_planes", "keep_only"]
+__all__ = ["MAX_STRUCTS", "MAX_DIRECTIONS", "MAX_LENSES", "MAX_BLOCKS", "camera_key", "lens_key", "structs",
+           "directions", "take_film", "give_back", "film_visits", "film_covered", "image_planes", "keep_only"]
 
 #: Shading / Camera struct pairs kept per database (a sequence's frames alternate with a
 #: warm frame in the benchmarks; a sweep of options a few).
