@@ -151,3 +151,17 @@ def test_a_repeated_call_takes_its_renderer_again(parade, monkeypatch):
     evicted = warp_st.render(parade, **kw)
     assert len(made) == 2 and database_cache.builds() == n + 1
     assert same(first, evicted)
+
+
+def test_a_kept_renderer_does_not_outlive_its_database():
+    """Law: when the cache drops a database (past MAX_DATABASES), the renderer a call kept
+    on it goes too, so the scene holds no more databases than the cache's limit."""
+    scene = warp_st.load(str(PARADE))
+    warp_st.render(scene, frame=0, width=48, height=27)
+    cache = database_cache.for_scene(scene)
+    first = weakref.ref(cache.databases[-1])
+    for width in (64, 96, 128, 160):  # tessellated spheres: a database per resolution
+        Renderer(scene, frames=[0], width=width, height=width // 2, quadrics="tessellated")
+    assert all(d is not first() for d in cache.databases)
+    gc.collect()
+    assert first() is None, "a kept renderer keeps a dropped database alive"

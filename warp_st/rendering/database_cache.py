@@ -49,9 +49,9 @@ Renderers: ``warp_st.render`` keeps the renderer of each of the last MAX_RENDERE
 (frame, options) pairs of a scene, detached from the scene (``render_call.detached``: no
 entry refers to its scene). A call with the same frame and options takes that renderer
 again instead of making a new one (its option checks, windows look-up, memory check and
-database choice: ~0.4 ms a call after a warm frame), while its database is still one of
-the scene's; once the database has left the cache, the entry is dropped and the call
-makes a new renderer.
+database choice: ~0.4 ms a call after a warm frame). A database dropped from the cache
+takes its kept renderers with it (``add``), and a kept renderer whose database is not
+the scene's any more (``clear``, a test's hand) is dropped when asked for.
 docs/design/database-cache.md says the same for users.
 """
 from __future__ import annotations
@@ -186,7 +186,10 @@ class SceneCache:
             _builds += 1
         self.databases.append(db)
         while len(self.databases) > MAX_DATABASES:
-            self.databases.pop(0)
+            gone = self.databases.pop(0)
+            with _lock:  # a kept renderer must not keep a dropped database alive
+                for key in [k for k, r in self._renderers.items() if r.database is gone]:
+                    del self._renderers[key]
 
 
 def _lru(entries: OrderedDict, key, make, limit: int):
