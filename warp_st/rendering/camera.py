@@ -17,6 +17,7 @@ from warp_st.core.lorentz import aberrate
 from warp_st.core.scene import CameraState
 from warp_st.core.thread_pool import each_on_threads
 from warp_st.kernels import Kernels
+from warp_st.rendering.launches import tile_launches
 
 __all__ = ["make_camera", "camera_rays", "camera_velocity_gamma",
            "pixel_directions", "ray_directions", "DIRECTION_FRAMES"]
@@ -93,9 +94,8 @@ def camera_rays(k: Kernels, c, threads: int = 1) -> wp.array:
     n = c.width * c.height
     out = wp.empty(n, dtype=k.vec3, device="cpu")
     step = -(-n // max(1, threads))
-    wp.load_module(k.camera_rays.module, device="cpu")  # before the threads launch it
-    each_on_threads(lambda first: wp.launch(k.camera_rays, dim=min(step, n - first), inputs=[c, out, first],
-                                            device="cpu"), range(0, n, step), threads)
+    each_on_threads(tile_launches(wp, k.camera_rays, [c, out], per_thread=1, end=False),
+                    [(first, min(step, n - first)) for first in range(0, n, step)], threads)
     return out
 
 

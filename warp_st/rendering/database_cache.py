@@ -50,8 +50,7 @@ Renderers: ``warp_st.render`` keeps the renderer of each of the last MAX_RENDERE
 entry refers to its scene). A call with the same frame and options takes that renderer
 again instead of making a new one (its option checks, windows look-up, memory check and
 database choice: ~0.4 ms a call after a warm frame). A database dropped from the cache
-takes its kept renderers with it (``add``), and a kept renderer whose database is not
-the scene's any more (``clear``, a test's hand) is dropped when asked for.
+takes its kept renderers with it (``add``).
 docs/design/database-cache.md says the same for users.
 """
 from __future__ import annotations
@@ -64,7 +63,7 @@ from dataclasses import dataclass, field
 from warp_st.spacetime.visibility import intervals
 
 __all__ = ["MAX_DATABASES", "MAX_TESSELLATIONS", "MAX_GEOMETRIES", "MAX_WINDOWS", "MAX_RENDERERS", "Database",
-           "SceneCache", "for_scene", "clear", "builds", "covers"]
+           "SceneCache", "for_scene", "clear", "builds", "covers", "lru"]
 
 #: Databases kept per scene (a sequence renders each frame from one database; sweeps of
 #: a few option sets alternate between a few).
@@ -117,7 +116,7 @@ class Database:
 
     def geometry_for(self, precision: str, origin: tuple, make):
         """The geometry recentred on ``origin`` (made by ``make()`` when missing)."""
-        return _lru(self.geometry, (precision, origin), make, MAX_GEOMETRIES)
+        return lru(self.geometry, (precision, origin), make, MAX_GEOMETRIES)
 
 
 class SceneCache:
@@ -131,14 +130,11 @@ class SceneCache:
         self.databases: list[Database] = []
 
     def renderer(self, key):
-        """The detached renderer kept for ``key`` (a call's frame and options), or None:
-        none kept, or its database no longer among this scene's (the entry is dropped)."""
+        """The detached renderer kept for ``key`` (a call's frame and options), or None; its
+        database is one of this scene's (``add`` drops the renderers of a dropped one)."""
         with _lock:
             renderer = self._renderers.get(key)
             if renderer is None:
-                return None
-            if not any(d is renderer.database for d in self.databases):
-                del self._renderers[key]
                 return None
             self._renderers.move_to_end(key)
         self.use(renderer.database)
@@ -155,18 +151,18 @@ class SceneCache:
     def windows(self, key, make):
         """The visible windows of the cameras and options in ``key`` (made by ``make()``
         when missing): the body balls and shadow bounds cost more than a look-up."""
-        return _lru(self._windows, key, make, MAX_WINDOWS)
+        return lru(self._windows, key, make, MAX_WINDOWS)
 
     def tessellated(self, key, make):
         """The scene's bodies re-tessellated as ``key`` says (made by ``make()`` when
         missing). Bodies, not a Scene: no entry may refer to the scene it is cached on,
         or the scene would never be freed."""
-        return _lru(self.tessellations, key, make, MAX_TESSELLATIONS)
+        return lru(self.tessellations, key, make, MAX_TESSELLATIONS)
 
     def shapes(self, tessellation, make):
         """The rigid shapes and bottom levels of a tessellation (made by ``make()`` when
         missing): built once per scene and tessellation, whatever the frames."""
-        return _lru(self._shapes, tessellation, make, MAX_TESSELLATIONS)
+        return lru(self._shapes, tessellation, make, MAX_TESSELLATIONS)
 
     def candidates(self, tessellation, primitive, windows) -> list[Database]:
         """Databases of this tessellation and primitive whose windows cover ``windows``,
@@ -192,14 +188,19 @@ class SceneCache:
                     del self._renderers[key]
 
 
-def _lru(entries: OrderedDict, key, make, limit: int):
-    """``entries[key]``, made by ``make()`` when missing; least recently used dropped past ``limit``."""
-    if key in entries:
-        entries.move_to_end(key)
-        return entries[key]
-    value = entries[key] = make()
-    while len(entries) > limit:
-        entries.popitem(last=False)
+def lru(entries: OrderedDict, key, make, limit: int):
+    """``entries[key]``, made by ``make()`` when missing; least recently used dropped past
+    ``limit``. The look-up and the insertion hold the lock, ``make()`` does not (it may
+    build a database's shapes): two threads missing at once both make, the last is kept."""
+    with _lock:
+        if key in entries:
+            entries.move_to_end(key)
+            return entries[key]
+    value = make()
+    with _lock:
+        entries[key] = value
+        while len(entries) > limit:
+            entries.popitem(last=False)
     return value
 
 

@@ -46,6 +46,7 @@ import warp as wp
 
 from warp_st.core.scene import CameraState
 from warp_st.kernels.render_kernel import PIXELS_PER_THREAD
+from warp_st.rendering.database_cache import lru
 
 __all__ = ["MAX_STRUCTS", "MAX_DIRECTIONS", "MAX_LENSES", "MAX_BLOCKS", "camera_key", "lens_key", "structs",
            "directions", "take_film", "give_back", "film_visits", "film_covered", "image_planes", "keep_only"]
@@ -101,25 +102,12 @@ def directions(db, key: tuple, make):
                     db.lenses.popitem(last=False)
                 return None
             db.lenses.pop(key)
-    return _lru(db.directions, key, make, MAX_DIRECTIONS)
-
-
-def _lru(entries, key, make, limit: int):
-    with _lock:
-        if key in entries:
-            entries.move_to_end(key)
-            return entries[key]
-    value = make()
-    with _lock:
-        entries[key] = value
-        while len(entries) > limit:
-            entries.popitem(last=False)
-    return value
+    return lru(db.directions, key, make, MAX_DIRECTIONS)
 
 
 def structs(db, key: tuple, make):
     """The (Shading, Camera) pair of ``key`` on database ``db`` (made by ``make()`` when missing)."""
-    return _lru(db.frame_structs, key, make, MAX_STRUCTS)
+    return lru(db.frame_structs, key, make, MAX_STRUCTS)
 
 
 def take_film(db, k, n_pix: int, sample_slots: int, into_image: bool = False):

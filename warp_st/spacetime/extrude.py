@@ -35,6 +35,7 @@ __all__ = [
     "SpacetimeMesh",
     "BodyTriangles",
     "body_triangles",
+    "bytes_once",
     "extrude_scene",
     "body_slices",
 ]
@@ -305,18 +306,23 @@ def _instance_key(body: Body, A: np.ndarray, rest: list, seen: dict) -> tuple:
     def f32(a):
         return None if a is None else np.asarray(a, dtype=np.float64).astype(np.float32).tobytes()
 
-    def shared(a, convert):
-        if a is None:
-            return None
-        if id(a) not in seen:
-            seen[id(a)] = (a, convert(a))  # the array kept beside its bytes: its id stays its own
-        return seen[id(a)][1]
-
     key: list = [A.tobytes()]
     for s, r in zip(body.surfaces, rest):
-        key += [f32(r), shared(s.triangles, lambda a: np.asarray(a).tobytes()), shared(s.normals, f32),
-                shared(s.st, f32)]
+        key += [f32(r), bytes_once(seen, s.triangles, lambda a: np.asarray(a).tobytes()),
+                bytes_once(seen, s.normals, f32), bytes_once(seen, s.st, f32)]
     return tuple(key)
+
+
+def bytes_once(seen: dict, a, convert):
+    """``convert(a)`` (bytes of array ``a``; None for None), made once per array object:
+    ``seen`` holds each array by id beside its bytes, so arrays that bodies share (an
+    instance's triangles, normals) are copied and, as a bytes object caches its hash,
+    hashed once. Keeping the array keeps its id its own while ``seen`` lives."""
+    if a is None:
+        return None
+    if id(a) not in seen:
+        seen[id(a)] = (a, convert(a))
+    return seen[id(a)][1]
 
 
 def _triangle_materials(surf, keep: np.ndarray, materials: list, mat_index: dict) -> np.ndarray:

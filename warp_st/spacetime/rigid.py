@@ -30,7 +30,7 @@ from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Scene
 from warp_st.core.thread_pool import thread_pool
 from warp_st.kernels.quadrics import QUADRIC_CAPSULE, QUADRIC_CONE, QUADRIC_CYLINDER, QUADRIC_SPHERE
-from warp_st.spacetime.extrude import TriangleTables, _body_size, bodies_triangles
+from warp_st.spacetime.extrude import TriangleTables, _body_size, bodies_triangles, bytes_once
 from warp_st.spacetime.merge_classes import merge_plan, merged_bodies, motion_group, pivot_offset
 from warp_st.spacetime.visibility import intervals, union
 
@@ -299,11 +299,9 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
     mat_index: dict = {}
     n_bodies = len(bodies)
     found = _held_triangles(bodies, materials, mat_index, dtype)
-    tri_bytes: dict = {}  # id of a triangle table instances share -> (it, its bytes): made and hashed once
-    for bt in found:
-        if bt is not None and id(bt.triangles) not in tri_bytes:
-            tri_bytes[id(bt.triangles)] = (bt.triangles, bt.triangles.astype(np.int32).tobytes())
-    keys = [None if bt is None else (bt.rest.astype(np.float32).tobytes(), tri_bytes[id(bt.triangles)][1])
+    seen: dict = {}  # the triangle tables instances share: their bytes made and hashed once
+    keys = [None if bt is None else (bt.rest.astype(np.float32).tobytes(),
+                                     bytes_once(seen, bt.triangles, lambda a: a.astype(np.int32).tobytes()))
             for bt in found]
     uses: dict = {}
     for key in keys:
