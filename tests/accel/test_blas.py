@@ -1,4 +1,4 @@
-"""The bottom level (accel/blas.py, kernels/blas.py) against brute force and wp.Mesh.
+"""The bottom level (accel/blas.py, kernels/blas.py) against brute force, wp.Mesh and its twin.
 
 Law: the closest crossing of a float32 ray p + t d (t in [0, t_max]) with a shape's
 triangles. Oracles, on every shipped stage's shapes and on hand-made ones with
@@ -15,7 +15,9 @@ degenerate triangles:
   products: the same hits where neither is within rounding of an edge;
 - any-hit: a hit exactly when the closest-hit query finds one;
 - watertightness: rays aimed exactly at the shared vertices and edge points of closed
-  meshes (a tessellated sphere, a cube) never pass through.
+  meshes (a tessellated sphere, a cube) never pass through;
+- the Warp-language twin (``blas_twin.py``) of the C++ query: the same bits (t,
+  barycentrics, face) for closest and any hits and for the merged shapes' filter.
 """
 from __future__ import annotations
 
@@ -24,6 +26,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import warp as wp
+from blas_twin import make_blas_twin
 
 from warp_st.accel.blas import BottomLevels
 from warp_st.core import tessellate
@@ -44,6 +47,7 @@ EDGE_TOL = 1.0e-6
 #: The rigid path's Geometry; only its bottom-level arrays are set here.
 Blas = get_kernels("float32", "rigid").Geometry
 _query = make_blas_query(Blas)
+_twin = make_blas_twin(Blas)
 
 
 @wp.kernel(enable_backward=False, module="unique")
@@ -54,6 +58,19 @@ def _blas_rays(g: Blas, root: int, p: wp.array(dtype=wp.vec3), d: wp.array(dtype
     face[i] = wp.where(hit != 0, f, -1)
     t[i] = tt
     uv[i] = wp.vec2(u, v)
+
+
+@wp.kernel(enable_backward=False, module="unique")
+def _pair_rays(g: Blas, root: int, p: wp.array(dtype=wp.vec3), d: wp.array(dtype=wp.vec3), t_max: float,
+               any_hit: int, skip_body: int, skip_t: float, skip_tri: int, out: wp.array(dtype=wp.vec4),
+               out_twin: wp.array(dtype=wp.vec4), faces: wp.array(dtype=wp.vec2i)):
+    """The C++ query and its twin on the same ray, the filter's arguments at run time."""
+    i = wp.tid()
+    hit, tt, u, v, f = _query(g, root, 0, 0, p[i], d[i], t_max, any_hit, 0, skip_body, skip_t, skip_tri)
+    hit2, tt2, u2, v2, f2 = _twin(g, root, 0, 0, p[i], d[i], t_max, any_hit, 0, skip_body, skip_t, skip_tri)
+    out[i] = wp.vec4(tt, u, v, float(hit))
+    out_twin[i] = wp.vec4(tt2, u2, v2, float(hit2))
+    faces[i] = wp.vec2i(wp.where(hit != 0, f, -1), wp.where(hit2 != 0, f2, -1))
 
 
 @wp.kernel(enable_backward=False, module="unique")
@@ -99,6 +116,16 @@ class Shape:
         wp.launch(_blas_rays, dim=n, inputs=[self.g, int(self.bottom.body_root[0]), _vec3(p), _vec3(d),
                                               float(t_max), int(any_hit), face, t, uv], device="cpu")
         return face.numpy(), t.numpy().astype(np.float64), uv.numpy()
+
+    def pair_query(self, p, d, t_max=1.0e30, any_hit=False, skip=(-1, 0.0, -1)):
+        """(C++ (t, u, v, hit), twin's, faces (N, 2)) of the same rays."""
+        n = len(p)
+        out = [wp.zeros(n, dtype=wp.vec4, device="cpu") for _ in range(2)]
+        faces = wp.zeros(n, dtype=wp.vec2i, device="cpu")
+        wp.launch(_pair_rays, dim=n, inputs=[self.g, int(self.bottom.body_root[0]), _vec3(p), _vec3(d), float(t_max),
+                                              int(any_hit), int(skip[0]), float(skip[1]), int(skip[2]), *out, faces],
+                  device="cpu")
+        return out[0].numpy(), out[1].numpy(), faces.numpy()
 
     def mesh_query(self, p, d, t_max=1.0e30):
         mesh = wp.Mesh(points=wp.array(self.points, dtype=wp.vec3, device="cpu"),
@@ -295,6 +322,28 @@ def test_closest_hits_equal_wp_mesh():
         both = clear & (face >= 0)
         err = _t_error(shape, face, t, m_t, p, d)
         assert err[both].max(initial=0.0) <= T_TOL, (name, float(err[both].max()))
+
+
+def test_the_cpp_query_is_its_warp_twin_bit_for_bit():
+    """Every shipped shape (and the degenerate strip), closest and any hits, a short and
+    an unbounded t_max, and a merged shape's filter (each triangle given one of three
+    bodies; one body and one triangle left out below a lookback): t, barycentrics and
+    face bit for bit, as the two compute the same float32 and float64 operations in the
+    same order (a different rounding, lane or tie order shows here)."""
+    cases = [(name, rest, tris) for name, rest, tris in _stage_shapes()] + [("degenerate", *_degenerate_shape())]
+    hits = 0
+    for i, (name, rest, tris) in enumerate(cases):
+        shape = Shape(rest, tris)
+        shape.g.tri_body = wp.array(np.arange(len(shape.triangles), dtype=np.int32) % 3, dtype=wp.int32, device="cpu")
+        p, d = _rays(shape, 600, seed=300 + i)
+        size = float(np.max(np.ptp(shape.points, axis=0))) or 1.0
+        for t_max, any_hit, skip in ((1.0e30, False, (-1, 0.0, -1)), (0.7, False, (-1, 0.0, -1)),
+                                     (1.0e30, True, (-1, 0.0, -1)), (1.0e30, False, (1, 2.0 * size, 5))):
+            ours, twin, faces = shape.pair_query(p, d, t_max, any_hit, skip)
+            assert np.array_equal(faces[:, 0], faces[:, 1]), (name, t_max, any_hit, skip)
+            assert np.array_equal(ours.view(np.uint32), twin.view(np.uint32)), (name, t_max, any_hit, skip)
+            hits += int((faces[:, 0] >= 0).sum())
+    assert hits > 20000  # the rays do meet the shapes
 
 
 def test_any_hit_finds_a_hit_exactly_when_the_closest_hit_does():
