@@ -34,29 +34,17 @@ one vector operation per step, and its stack is not zeroed per query. Warp's own
 types went through memory between steps (docs/design/two-level.md). Its Warp-language
 twin, ``tests/accel/blas_twin.py``, computes the same bits (the tests hold them equal).
 """
-from pathlib import Path
-
-import numpy as np
 import warp as wp
 
 from warp_st.kernels.layout import LINK_MASK, LINK_SHIFT
+from warp_st.kernels.native import float_bits, snippet
 from warp_st.kernels.traverse import STACK_SIZE, make_box_ops
 
 __all__ = ["make_blas_query"]
 
 
-def _snippet() -> str:
-    """``blas_query.inc`` with its constants: the stack's size, the link packing, the slab
-    widening (the float32 value Warp's code multiplies by, as a hexadecimal literal)."""
-    slab_grow = make_box_ops(wp.float32)[3]
-    text = (Path(__file__).with_name("blas_query.inc")).read_text()
-    for name, value in (("@STACK@", str(STACK_SIZE)), ("@SHIFT@", str(LINK_SHIFT)), ("@MASK@", str(LINK_MASK)),
-                        ("@GROW@", float(np.float32(slab_grow)).hex() + "f")):
-        text = text.replace(name, value)
-    return text
-
-
-_NATIVE = _snippet()
+_NATIVE = snippet("blas_query.inc", STACK=STACK_SIZE, SHIFT=LINK_SHIFT, MASK=LINK_MASK,
+                  GROW=make_box_ops(wp.float32)[3])
 
 
 @wp.func_native(_NATIVE)
@@ -66,11 +54,6 @@ def native_query(vidx: wp.array(dtype=wp.vec3i), pts: wp.array(dtype=wp.vec3),
                  p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int, tri_base: int, skip_body: int,
                  skip_t: wp.float32, skip_tri: int) -> wp.vec4:
     """(t, u, v, the hit slot's int32 bits; -1 without a hit)."""
-
-
-@wp.func_native("int bits; __builtin_memcpy(&bits, &x, 4); return bits;")
-def float_bits(x: wp.float32) -> int:
-    """The int32 whose bits ``x`` holds."""
 
 
 def make_blas_query(Geometry):

@@ -1,4 +1,4 @@
-"""The 4-wide 4D BVH traversal, generic over what its leaves hold (pure Warp device code).
+"""The 4-wide 4D BVH traversal, generic over what its leaves hold (device code).
 
 A ray is the null line E(s) = O + s d with d = (-1, n) for finite light speed or
 (0, n) for infinite light speed (docs/spec.md §1), s >= 0 the lookback, in render-origin
@@ -19,11 +19,15 @@ segments (``trace_rigid.py``). ``make_traverse`` takes
 Traversal: nearest child first with a fixed stack; a visit tests its four child boxes
 as one 16-lane slab test and carries the children's packed links, loaded beside their
 boxes. A null ray meets a 4D box by the usual slab test plus the t slab (t = t_c - s).
+In float32 the visit (slabs, the hit children, their order) is C++ on clang's vector
+types (``wide_visit.inc``, as ``blas.py``'s query); float64 runs its Warp-language
+twin (``box_quad``, ``sort4``), which the tests hold equal to it bit for bit.
 """
 
 import warp as wp
 
 from warp_st.kernels.layout import LINK_MASK, LINK_SHIFT, MAX_WIDE_DEPTH
+from warp_st.kernels.native import float_bits, snippet
 
 __all__ = ["make_traverse", "make_box_ops", "make_sort4", "STACK_SIZE"]
 
@@ -92,14 +96,36 @@ def make_sort4(scalar):
     return sort4
 
 
-def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None):
+def _native_visit():
+    """``native_visit(lo, hi, o, inv, s_min, s_max, links)``: a float32 node visit in C++
+    (``wide_visit.inc``): the children's entries in ascending order (+inf for the missed),
+    their links' bits, and the number hit."""
+    vec16 = wp.types.vector(16, wp.float32)
+
+    @wp.func_native(snippet("wide_visit.inc", GROW=make_box_ops(wp.float32)[3]))
+    def native_visit(lo: vec16, hi: vec16, o: wp.vec4, inv: wp.vec4, s_min: wp.float32, s_max: wp.float32,
+                     links: wp.vec4i) -> wp.types.vector(9, wp.float32):
+        """(entries 0-3, the links' int32 bits 4-7, hits 8)."""
+
+    return native_visit
+
+
+native_visit = _native_visit()
+
+
+def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, native: bool | None = None):
     """``trace(g, o, n, finite, s_min, s_max, skip_tri, skip_body, skip_dist, any_hit)``
     over ``Geometry``'s 4-wide BVH with the leaf test ``leaf`` (see the module docstring).
     ``inline``: Warp's inlining of ``trace`` (None: the compiler's choice; True: into every
     call site, where the caller's constant arguments then fold its branches away).
 
+    ``native``: the float32 node visit in C++ (``wide_visit.inc``; None: for float32,
+    the default; False: the Warp-language ``box_quad`` and ``sort4``, its twin in the
+    tests; float64 always takes those).
+
     Returns (primitive index or -1, s, barycentrics, nodes visited, stack overflowed).
     """
+    use_native = scalar == wp.float32 and native is not False
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
     vec16 = wp.types.vector(16, scalar)
@@ -211,19 +237,26 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None):
                 if any_hit != 0 and best_prim >= 0:
                     break
             else:
-                near, far = box_quad(g, first, o16, inv16, s_min, best)
-                links = g.node_link[first]
                 # Children missed get entry +inf; sort the four by entry (a 5-exchange
                 # network), go to the nearest hit, push the other hits farthest first.
                 e = vec4()
+                links = g.node_link[first]
                 hits = int(0)
-                for k in range(4):
-                    if near[k] <= far[k]:
-                        e[k] = near[k]
-                        hits += 1
-                    else:
-                        e[k] = scalar(INF)
-                e, links = sort4(e, links)
+                if wp.static(use_native):
+                    r9 = native_visit(g.node_lo[first], g.node_hi[first], o, inv, s_min, best, links)
+                    for k in range(4):
+                        e[k] = r9[k]
+                        links[k] = float_bits(r9[4 + k])
+                    hits = int(r9[8])
+                else:
+                    near, far = box_quad(g, first, o16, inv16, s_min, best)
+                    for k in range(4):
+                        if near[k] <= far[k]:
+                            e[k] = near[k]
+                            hits += 1
+                        else:
+                            e[k] = scalar(INF)
+                    e, links = sort4(e, links)
                 if hits > 0:
                     next_link = links[0]
                     if sp + hits - 1 <= STACK_SIZE:
