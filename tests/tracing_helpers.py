@@ -47,10 +47,10 @@ class Database:
         self.prim_tri = self.mesh.prism_tri if primitive == "prism" else self.mesh.tet_tri
         self.prim_count = self.mesh.prim_count
 
-    def cast(self, origins, dirs, *, finite=True, brute=False):
+    def cast(self, origins, dirs, *, finite=True, brute=False, kernel=None):
         """(primitive, s, visits) for rays with lab origins (N, 4) and unit directions (N, 3);
         primitive indices refer to ``mesh.tets`` or ``mesh.prisms`` (``self.prim_tri`` maps
-        them to triangles)."""
+        them to triangles). ``kernel``: a probe in place of ``cast_rays`` (its arguments)."""
         k = self.k
         rel = np.asarray(origins, np.float64) - self.origin
         o = wp.array(rel.astype(self.np_scalar), dtype=k.vec4, device="cpu")
@@ -62,7 +62,7 @@ class Database:
             wp.launch(k.brute_rays, dim=n, inputs=[self.geo, self.prim_count, o, d, int(finite), tet, s], device="cpu")
             return tet.numpy(), s.numpy().astype(np.float64), None
         visits = wp.zeros(n, dtype=wp.int32, device="cpu")
-        wp.launch(k.cast_rays, dim=n, inputs=[self.geo, o, d, int(finite), tet, s, visits, 0], device="cpu")
+        wp.launch(kernel or k.cast_rays, dim=n, inputs=[self.geo, o, d, int(finite), tet, s, visits, 0], device="cpu")
         return tet.numpy(), s.numpy().astype(np.float64), visits.numpy()
 
 
@@ -95,8 +95,8 @@ class RigidDatabase(Database):
         self.prim_tri = np.arange(self.shapes.triangle_count)
         self.prim_count = self.segments.count
 
-    def cast(self, origins, dirs, *, finite=True, brute=False):
-        tri, s, visits = super().cast(origins, dirs, finite=finite, brute=brute)
+    def cast(self, origins, dirs, *, finite=True, brute=False, kernel=None):
+        tri, s, visits = super().cast(origins, dirs, finite=finite, brute=brute, kernel=kernel)
         return np.where(tri >= 0, self.original[np.maximum(tri, 0)], tri), s, visits
 
 
