@@ -43,11 +43,8 @@ from warp_st.kernels.traverse import STACK_SIZE, make_box_ops
 __all__ = ["make_blas_query"]
 
 
-_NATIVE = snippet("blas_query.inc", STACK=STACK_SIZE, SHIFT=LINK_SHIFT, MASK=LINK_MASK,
-                  GROW=make_box_ops(wp.float32)[3])
-
-
-@wp.func_native(_NATIVE)
+@wp.func_native(snippet("blas_query.inc", STACK=STACK_SIZE, SHIFT=LINK_SHIFT, MASK=LINK_MASK,
+                        GROW=make_box_ops(wp.float32)[3]))
 def native_query(vidx: wp.array(dtype=wp.vec3i), pts: wp.array(dtype=wp.vec3),
                  q: wp.array(dtype=wp.types.vector(24, wp.uint8)), frm: wp.array(dtype=wp.types.vector(6, wp.float32)),
                  lk: wp.array(dtype=wp.vec4i), tri_body: wp.array(dtype=wp.int32), root: int, vert: int, tri0: int,

@@ -96,21 +96,12 @@ def make_sort4(scalar):
     return sort4
 
 
-def _native_visit():
-    """``native_visit(lo, hi, o, inv, s_min, s_max, links)``: a float32 node visit in C++
-    (``wide_visit.inc``): the children's entries in ascending order (+inf for the missed),
-    their links' bits, and the number hit."""
-    vec16 = wp.types.vector(16, wp.float32)
-
-    @wp.func_native(snippet("wide_visit.inc", GROW=make_box_ops(wp.float32)[3]))
-    def native_visit(lo: vec16, hi: vec16, o: wp.vec4, inv: wp.vec4, s_min: wp.float32, s_max: wp.float32,
-                     links: wp.vec4i) -> wp.types.vector(9, wp.float32):
-        """(entries 0-3, the links' int32 bits 4-7, hits 8)."""
-
-    return native_visit
-
-
-native_visit = _native_visit()
+@wp.func_native(snippet("wide_visit.inc", GROW=make_box_ops(wp.float32)[3]))
+def native_visit(lo: wp.types.vector(16, wp.float32), hi: wp.types.vector(16, wp.float32), o: wp.vec4, inv: wp.vec4,
+                 s_min: wp.float32, s_max: wp.float32, links: wp.vec4i) -> wp.types.vector(9, wp.float32):
+    """A float32 node visit in C++ (``wide_visit.inc``): the children's entries in
+    ascending order (+inf for the missed) in lanes 0-3, their links' int32 bits in 4-7,
+    the number hit in 8."""
 
 
 def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, native: bool | None = None):
@@ -197,11 +188,12 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
             r_far = fmin(r_far, fmax(ra[k], rb[k]) * scalar(SLAB_GROW))
         if r_near > r_far:
             return int(-1), s_max, vec4(scalar(0.0)), int(0), int(0)
-        o16 = vec16()
-        inv16 = vec16()
-        for k in range(16):
-            o16[k] = o[k // 4]
-            inv16[k] = inv[k // 4]
+        if wp.static(not use_native):  # box_quad's broadcasts (the C++ visit splats its own)
+            o16 = vec16()
+            inv16 = vec16()
+            for k in range(16):
+                o16[k] = o[k // 4]
+                inv16[k] = inv[k // 4]
         ray = prepare(g, o, n, finite)
         best = s_max
         best_prim = int(-1)
