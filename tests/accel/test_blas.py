@@ -46,7 +46,7 @@ EDGE_TOL = 1.0e-6
 
 #: The rigid path's Geometry; only its bottom-level arrays are set here.
 Blas = get_kernels("float32", "rigid").Geometry
-_query = make_blas_query(Blas)
+_query = make_blas_query(Blas)[0]
 _twin = make_blas_twin(Blas)
 
 

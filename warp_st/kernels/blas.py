@@ -48,21 +48,48 @@ __all__ = ["make_blas_query"]
 def native_query(vidx: wp.array(dtype=wp.vec3i), pts: wp.array(dtype=wp.vec3),
                  q: wp.array(dtype=wp.types.vector(24, wp.uint8)), frm: wp.array(dtype=wp.types.vector(6, wp.float32)),
                  lk: wp.array(dtype=wp.vec4i), tri_body: wp.array(dtype=wp.int32), root: int, vert: int, tri0: int,
-                 p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int, tri_base: int, skip_body: int,
-                 skip_t: wp.float32, skip_tri: int) -> wp.vec4:
-    """(t, u, v, the hit slot's int32 bits; -1 without a hit)."""
+                 p: wp.vec3, shear: wp.vec4, inv: wp.vec3, t_max: wp.float32, any_hit: int, tri_base: int,
+                 skip_body: int, skip_t: wp.float32, skip_tri: int) -> wp.vec4:
+    """(t, u, v, the hit slot's int32 bits; -1 without a hit) of the ray from ``p`` whose
+    direction d gives ``shear`` = ray_shear(d) and ``inv`` = 1 / d (``ray_inv``)."""
+
+
+@wp.func_native(snippet("ray_shear.inc"))
+def ray_shear(d: wp.vec3) -> wp.vec4:
+    """Woop's shear of direction ``d`` (``ray_shear.inc``), as ``native_query`` takes it."""
+
+
+_safe_inv = make_box_ops(wp.float32)[2]
+
+
+@wp.func
+def ray_inv(d: wp.vec3) -> wp.vec3:
+    """1 / d per axis for the query's slabs (traverse.safe_inv: +-1e30 for a zero)."""
+    return wp.vec3(_safe_inv(d[0]), _safe_inv(d[1]), _safe_inv(d[2]))
 
 
 def make_blas_query(Geometry):
+    """(blas_query, blas_query_sheared): the query of the module docstring, and the same
+    with the direction given as its ``ray_shear`` and ``ray_inv`` (a caller tracing one
+    direction into several bottom levels computes them once)."""
+
     @wp.func(inline=True)
-    def blas_query(g: Geometry, root: int, vert: int, tri0: int, p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int,
-                   tri_base: int, skip_body: int, skip_t: wp.float32, skip_tri: int):
+    def blas_query_sheared(g: Geometry, root: int, vert: int, tri0: int, p: wp.vec3, shear: wp.vec4, inv: wp.vec3,
+                           t_max: wp.float32, any_hit: int, tri_base: int, skip_body: int, skip_t: wp.float32,
+                           skip_tri: int):
         r = native_query(g.shape_vidx, g.blas_points, g.blas_q, g.blas_frame, g.blas_link, g.tri_body, root, vert, tri0,
-                         p, d, t_max, any_hit, tri_base, skip_body, skip_t, skip_tri)
+                         p, shear, inv, t_max, any_hit, tri_base, skip_body, skip_t, skip_tri)
         slot = float_bits(r[3])
         hit = int(0)
         if slot >= 0:
             hit = 1
         return hit, r[0], r[1], r[2], slot - tri0
 
-    return blas_query
+    @wp.func(inline=True)
+    def blas_query(g: Geometry, root: int, vert: int, tri0: int, p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int,
+                   tri_base: int, skip_body: int, skip_t: wp.float32, skip_tri: int):
+        hit, t, u, v, face = blas_query_sheared(g, root, vert, tri0, p, ray_shear(d), ray_inv(d), t_max, any_hit,
+                                                tri_base, skip_body, skip_t, skip_tri)
+        return hit, t, u, v, face
+
+    return blas_query, blas_query_sheared

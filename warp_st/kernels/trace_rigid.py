@@ -15,7 +15,9 @@ body's reference event (t_ref, o) on the pivot's worldline as anchor, the ray is
                                                                D = n      (infinite c)
 
 (A^-1 = I for decoupled bodies), computed in float64, and s is the mesh query's own
-parameter. The segment admits s in [s_lo, s_hi]: (s_min, best) cut to its span
+parameter. A body at rest with A^-1 = I (``AT_REST``) sees r(s) = (o_x - o) + s n: its d,
+1 / d and the bottom level's shear (``blas.ray_shear``) are the ray's, computed once in
+``prepare`` instead of per segment (the same values, bit for bit: tests/accel/test_at_rest.py). The segment admits s in [s_lo, s_hi]: (s_min, best) cut to its span
 (t = o_t - s in [t_lo, t_hi]; with infinite c, o_t itself must lie in it). The query
 runs over the part of that where r(s) is inside the body's rest box (see ``leaf``).
 Hits on body ``skip_body`` (or another piece of its animated object, ``body_object``)
@@ -55,7 +57,7 @@ tetrahedron hit returns primitive ``tet_first`` + its index (``prim_lookup``).
 
 import warp as wp
 
-from warp_st.kernels.blas import make_blas_query
+from warp_st.kernels.blas import make_blas_query, ray_inv, ray_shear
 from warp_st.kernels.layout import ANALYTIC
 from warp_st.kernels.quadrics import make_quadrics
 from warp_st.kernels.struct_ref import referenced
@@ -84,6 +86,8 @@ def make_trace_rigid(scalar, tets: bool = False):
     # fraction of its lookback (and as much absolutely): far past the float32 rounding of
     # the crossing (~1e-7), far below the self-intersection offset SELF_EPS (1e-4).
     SKIP_STEP = 1.0e-6
+    START_OWN = wp.constant(1)  # body_flags' bits
+    AT_REST = wp.constant(2)
     TetGeometry, tet_trace = make_trace(scalar, "tet")[:2] if tets else (None, None)
     with_tets = tets  # the struct's field is named tets
 
@@ -111,7 +115,10 @@ def make_trace_rigid(scalar, tets: bool = False):
         body_rest_hi: wp.array(dtype=wp.vec3d)
         body_start_lo: wp.array(dtype=wp.vec3d)  # the box of every shape held in that frame
         body_start_hi: wp.array(dtype=wp.vec3d)
-        body_start_own: wp.array(dtype=wp.int32)  # 1 where that box is the body's own (the frame holds it alone)
+        # START_OWN: that box is the body's own (the frame holds it alone); AT_REST: the
+        # body is at rest with A^-1 = I and not body_mapped, so its ray is the lab ray
+        # moved (p = o - anchor, d = n) and its direction, 1 / d and shear are the ray's own
+        body_flags: wp.array(dtype=wp.int32)
         body_anchor: wp.array(dtype=wp.vec4d)  # the frame's event relative to the render origin
         body_end: wp.array(dtype=wp.float64)  # the lifetime's end relative to the render origin
         body_quadric: wp.array(dtype=wp.int32)  # >0: the body is that exact shape (kernels/quadrics.py)
@@ -147,12 +154,25 @@ def make_trace_rigid(scalar, tets: bool = False):
             tets: TetGeometry
             tet_first: int
 
-    blas_query = make_blas_query(Geometry)
+    blas_query_sheared = make_blas_query(Geometry)[1]
+
+    @wp.func
+    def reciprocal(d: wp.vec3d) -> wp.vec3d:
+        """1 / d per axis where d is not 0 (rest_range's slabs; 0 where it is)."""
+        inv = wp.vec3d()
+        for k in range(3):
+            if d[k] != wp.float64(0.0):
+                inv[k] = wp.float64(1.0) / d[k]
+        return inv
 
     @wp.struct
     class Ray:
         inv: vec4  # 1 / d per axis for the segment boxes' slab test
         fin: scalar  # 1 for finite light speed (D = n + v), 0 for infinite (D = n)
+        n64: wp.vec3d  # n in float64, and its reciprocal(): an AT_REST body's d and 1 / d
+        inv64: wp.vec3d
+        shear: wp.vec4  # the float32 n's ray_shear and ray_inv: an AT_REST body's bottom-level query's
+        inv32: wp.vec3
 
     @wp.func
     def prepare(g: Geometry, o: vec4, n: vec3, finite: int) -> Ray:
@@ -163,6 +183,11 @@ def make_trace_rigid(scalar, tets: bool = False):
             inv_t = scalar(-1.0)
             r.fin = scalar(1.0)
         r.inv = vec4(inv_t, safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
+        r.n64 = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2]))
+        r.inv64 = reciprocal(r.n64)
+        n32 = wp.vec3(wp.float32(n[0]), wp.float32(n[1]), wp.float32(n[2]))
+        r.shear = ray_shear(n32)
+        r.inv32 = ray_inv(n32)
         return r
 
     @wp.func
@@ -188,15 +213,6 @@ def make_trace_rigid(scalar, tets: bool = False):
         w = wp.vec3d(wp.float64(o[1]) - a[1], wp.float64(o[2]) - a[2], wp.float64(o[3]) - a[3]) - v * (
             wp.float64(o[0]) - a[0])
         return rest * w, rest * d
-
-    @wp.func
-    def reciprocal(d: wp.vec3d) -> wp.vec3d:
-        """1 / d per axis where d is not 0 (rest_range's slabs; 0 where it is)."""
-        inv = wp.vec3d()
-        for k in range(3):
-            if d[k] != wp.float64(0.0):
-                inv[k] = wp.float64(1.0) / d[k]
-        return inv
 
     @wp.func
     def rest_range(lo: wp.vec3d, hi: wp.vec3d, p: wp.vec3d, d: wp.vec3d, inv: wp.vec3d, s0: wp.float64,
@@ -302,11 +318,19 @@ def make_trace_rigid(scalar, tets: bool = False):
                 s_hi = scalar(-1.0)
             b_lo, b_hi = box_range(g.seg_lo[si], g.seg_hi[si], o, ray.inv, s_lo, s_hi)
             if s_lo < s_hi and b_lo <= b_hi:
-                p, d = body_ray(g, body, o, n, ray.fin)
-                inv_d = reciprocal(d)
+                flags = g.body_flags[body]
+                p = wp.vec3d()
+                d = ray.n64
+                inv_d = ray.inv64
+                if flags & AT_REST != 0:
+                    a = g.body_anchor[body]
+                    p = wp.vec3d(wp.float64(o[1]) - a[1], wp.float64(o[2]) - a[2], wp.float64(o[3]) - a[3])
+                else:
+                    p, d = body_ray(g, body, o, n, ray.fin)
+                    inv_d = reciprocal(d)
                 e0, e1 = rest_range(g.body_rest_lo[body], g.body_rest_hi[body], p, d, inv_d, wp.float64(s_from),
                                     wp.float64(s_hi))
-                if e0 < e1 and g.body_start_own[body] == 0:  # its box is met: start where its frame's is entered
+                if e0 < e1 and flags & START_OWN == 0:  # its box is met: start where its frame's is entered
                     e0, _e = rest_range(g.body_start_lo[body], g.body_start_hi[body], p, d, inv_d,
                                         wp.float64(s_from), wp.float64(s_hi))
                 pm = p  # the ray as the bottom level sees it (the same s)
@@ -314,7 +338,12 @@ def make_trace_rigid(scalar, tets: bool = False):
                 if g.body_mapped[body] != 0:
                     pm = g.body_map[body] * (p - g.body_map_shift[body])
                     dm = g.body_map[body] * d
-                direction = wp.vec3(wp.float32(dm[0]), wp.float32(dm[1]), wp.float32(dm[2]))
+                shear = ray.shear  # an AT_REST body's direction is n: the ray's own
+                inv32 = ray.inv32
+                if flags & AT_REST == 0:
+                    direction = wp.vec3(wp.float32(dm[0]), wp.float32(dm[1]), wp.float32(dm[2]))
+                    shear = ray_shear(direction)
+                    inv32 = ray_inv(direction)
                 root = g.body_blas[body]
                 base = g.body_tri_base[body]
                 if g.body_quadric[body] != 0:
@@ -342,10 +371,10 @@ def make_trace_rigid(scalar, tets: bool = False):
                     attempt = int(0)  # a while loop: a constant range would be unrolled
                     while attempt < 4 and e0 < e1:
                         attempt += 1
-                        found, qt, qu, qv, face = blas_query(g, root, g.body_blas_vert[body], g.body_shape_tri[body],
-                                                             at(pm, dm, e0), direction, wp.float32(e1 - e0), shadow,
-                                                             base, filtered, wp.float32(wp.float64(skip_dist) - e0),
-                                                             skip_tri)
+                        found, qt, qu, qv, face = blas_query_sheared(g, root, g.body_blas_vert[body],
+                                                                     g.body_shape_tri[body], at(pm, dm, e0), shear,
+                                                                     inv32, wp.float32(e1 - e0), shadow, base, filtered,
+                                                                     wp.float32(wp.float64(skip_dist) - e0), skip_tri)
                         if found == 0:
                             e1 = wp.float64(-1.0)
                         elif shadow != 0:

@@ -57,12 +57,17 @@ class RigidArrays(ShadingTables):
         self.body_rest_hi = wp.array(shapes.body_rest_hi, dtype=wp.vec3d, device=_DEVICE)
         self.body_start_lo = wp.array(shapes.body_start_lo, dtype=wp.vec3d, device=_DEVICE)
         self.body_start_hi = wp.array(shapes.body_start_hi, dtype=wp.vec3d, device=_DEVICE)
-        # 1 where the frame holds the body's shape alone (its start box is its own box).
-        self.body_start_own = wp.array(np.all((shapes.body_start_lo == shapes.body_rest_lo)
-                                              & (shapes.body_start_hi == shapes.body_rest_hi), axis=1).astype(np.int32),
-                                       dtype=wp.int32, device=_DEVICE)
-        self.body_velocity64 = wp.array(np.array([b.velocity for b in shapes.bodies], dtype=np.float64).reshape(-1, 3),
-                                        dtype=wp.vec3d, device=_DEVICE)
+        velocity = np.array([b.velocity for b in shapes.bodies], dtype=np.float64).reshape(-1, 3)
+        self.body_velocity64 = wp.array(velocity, dtype=wp.vec3d, device=_DEVICE)
+        # kernels/trace_rigid's bits: START_OWN (1) where the frame holds the body's shape
+        # alone (its start box is its own box); AT_REST (2) where v = 0, A^-1 = I
+        # and the bottom level is in the body's coordinates (not body_mapped).
+        start_own = np.all((shapes.body_start_lo == shapes.body_rest_lo) & (shapes.body_start_hi == shapes.body_rest_hi),
+                           axis=1)
+        at_rest = (shapes.body_mapped == 0) & np.all(velocity == 0.0, axis=1) & np.all(shapes.rest_from_lab.reshape(-1, 9) == np.eye(3).reshape(9),
+                                                           axis=1)
+        self.body_flags = wp.array(start_own.astype(np.int32) | (at_rest.astype(np.int32) << 1), dtype=wp.int32,
+                                   device=_DEVICE)
         self.body_quadric = wp.array(shapes.body_quadric.astype(np.int32), dtype=wp.int32, device=_DEVICE)
         self.quadric_inv = wp.array(shapes.quadric_inv, dtype=wp.mat33d, device=_DEVICE)
         self.quadric_centre = wp.array(shapes.quadric_centre, dtype=wp.vec3d, device=_DEVICE)
@@ -86,7 +91,7 @@ def make_rigid_geometry(k: Kernels, static: RigidArrays, segments: MotionSegment
     order = static.order
     for name in ("shape_vidx", "body_shape_tri", "body_vert_base", "tri_body", "body_object", "body_blas",
                  "body_holder", "body_merged", "body_tri_base", "body_rest", "body_rest_lo", "body_rest_hi",
-                 "body_start_lo", "body_start_hi", "body_start_own", "seg_body", "body_quadric", "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map",
+                 "body_start_lo", "body_start_hi", "body_flags", "seg_body", "body_quadric", "quadric_inv", "quadric_centre", "quadric_param", "body_mapped", "body_map",
                  "body_map_shift", "blas_q", "blas_frame", "blas_link", "blas_points", "body_blas_vert"):
         setattr(g, name, getattr(static, name))
     g.body_velocity = static.body_velocity64
