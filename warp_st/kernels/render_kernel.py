@@ -265,9 +265,13 @@ def _make_render(scalar, k, trace, Geometry):
         """The pixel kernel shading lit hits with ``shade_hit``: ``shade``, or for scenes
         without lights ``no_lights`` (the kernel never calls it there). Without ``shade`` the
         kernel calls ``trace`` from one site, so the compiler inlines it and no ray copies the
-        Geometry struct (Warp passes structs by value): the same pixels, ~15 % faster."""
+        Geometry struct (Warp passes structs by value): the same pixels, ~15 % faster.
+        ``trace_path``, ``shade`` and ``sphere_visibility`` are inlined by force (each has one
+        call site): left to the compiler, the first two became out-of-line calls taking the
+        Geometry and Shading structs by value, ~5 KB copied per ray (docs/design/two-level.md,
+        "The lit kernel's struct copies")."""
 
-        @wp.func
+        @wp.func(inline=True)
         def trace_path(geo: Geometry, shd: Shading, cam: Camera, origin: vec4, n0: vec3):
             """Radiance along one camera ray with mirror bounces (a loop: kernels cannot recurse).
 
@@ -409,8 +413,8 @@ def _make_render(scalar, k, trace, Geometry):
                     n_next = centre_direction(cam, pixel + 1)
                 # Ray 0 is the AOV ray: the pixel centre at the frame's camera time (also the
                 # beauty when there is one sample); rays 1..samples are the jittered samples.
-                # One call site of trace_path, so the compiler inlines it (with a second one it
-                # became an out-of-line call copying the Geometry and Shading structs per ray).
+                # One call site of trace_path, inlined by force (out of line, a call copies the
+                # Geometry and Shading structs per ray).
                 rays = int(1)
                 if cam.samples > 1:
                     rays = 1 + cam.samples

@@ -159,7 +159,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
             return scalar(1.0)
         return scalar(0.0)
 
-    @wp.func
+    @wp.func(inline=True)
     def sphere_visibility(geo: Geometry, finite: int, event: vec4, x: vec3, c: vec3, r: scalar, l: vec3, d: scalar,
                           s_min: scalar, tri: int, body: int, skip_dist: scalar) -> scalar:
         """Unblocked fraction of five shadow rays to the sphere's silhouette disk (its centre and
@@ -238,7 +238,7 @@ def make_shade(scalar, vec3, vec4, Geometry, trace):
                     shifted += rad * a
         return total, shifted
 
-    @wp.func
+    @wp.func(inline=True)
     def shade(geo: Geometry, shd: Shading, finite: int, prim: int, path: scalar, event: vec4, normal: vec3,
               diffuse: vec3, emissive: vec3, u: vec3, gamma_u: scalar):
         """Emission plus Lambert from lights at rest, each behind a null-ray shadow test.
