@@ -17,9 +17,10 @@ body's reference event (t_ref, o) on the pivot's worldline as anchor, the ray is
 (A^-1 = I for decoupled bodies), computed in float64, and s is the mesh query's own
 parameter. A body at rest with A^-1 = I (``AT_REST``) sees r(s) = (o_x - o) + s n: its d,
 1 / d and the bottom level's shear (``blas.ray_shear``) are the ray's, computed once in
-``prepare`` instead of per segment (the same values, bit for bit: tests/accel/test_at_rest.py). The segment admits s in [s_lo, s_hi]: (s_min, best) cut to its span
-(t = o_t - s in [t_lo, t_hi]; with infinite c, o_t itself must lie in it). The query
-runs over the part of that where r(s) is inside the body's rest box (see ``leaf``).
+``prepare`` instead of per segment (the same values, bit for bit: tests/accel/test_at_rest.py).
+The segment admits s in [s_lo, s_hi]: (s_min, best) cut to its span (t = o_t - s in
+[t_lo, t_hi]; with infinite c, o_t itself must lie in it). The query runs over the part
+of that where r(s) is inside the body's rest box (see ``leaf``).
 Hits on body ``skip_body`` (or another piece of its animated object, ``body_object``)
 nearer than ``skip_dist`` are left out by starting that body's query at skip_dist
 instead: the same rule as the prism path, without a test per hit. A hit on the triangle

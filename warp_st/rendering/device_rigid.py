@@ -64,8 +64,8 @@ class RigidArrays(ShadingTables):
         # and the bottom level is in the body's coordinates (not body_mapped).
         start_own = np.all((shapes.body_start_lo == shapes.body_rest_lo) & (shapes.body_start_hi == shapes.body_rest_hi),
                            axis=1)
-        at_rest = (shapes.body_mapped == 0) & np.all(velocity == 0.0, axis=1) & np.all(shapes.rest_from_lab.reshape(-1, 9) == np.eye(3).reshape(9),
-                                                           axis=1)
+        identity = np.all(shapes.rest_from_lab.reshape(-1, 9) == np.eye(3).reshape(9), axis=1)
+        at_rest = (shapes.body_mapped == 0) & np.all(velocity == 0.0, axis=1) & identity
         self.body_flags = wp.array(start_own.astype(np.int32) | (at_rest.astype(np.int32) << 1), dtype=wp.int32,
                                    device=_DEVICE)
         self.body_quadric = wp.array(shapes.body_quadric.astype(np.int32), dtype=wp.int32, device=_DEVICE)
