@@ -41,9 +41,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-import platform
 import statistics
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -55,6 +53,8 @@ for _path in (ROOT, Path(__file__).resolve().parent):  # warp_st from this check
     if str(_path) not in sys.path:
         sys.path.insert(0, str(_path))
 
+from benchlib.machine import cpu_model  # noqa: E402
+
 TABLES = ("static", "trace", "shipped", "parade", "motion", "first", "distinct", "cubes", "sequence")
 #: The clock of the ray queries' timings (``MeshQueries.run``): wall time, or with
 #: ``--clock cpu`` the process's CPU time, which other jobs on a shared machine change far
@@ -62,17 +62,6 @@ TABLES = ("static", "trace", "shipped", "parade", "motion", "first", "distinct",
 CLOCK = [time.perf_counter]
 #: (speed, direction) of the moving spheres, cycled: 0.3c to 0.9c along the image axes.
 MOTIONS = ((0.3, (1, 0, 0)), (0.5, (0, 1, 0)), (0.7, (-1, 0, 0)), (0.9, (1, 1, 0)))
-
-
-def cpu_model() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=False).stdout
-        for line in out.splitlines():
-            if line.startswith("Model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def spheres_scene(segments: int, *, moving: bool):

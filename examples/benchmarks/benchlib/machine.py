@@ -17,23 +17,33 @@ def summarize(values) -> dict:
 
 
 def cpu_model() -> str:
-    """The CPU's model name: /proc/cpuinfo's "model name", else ``lscpu``'s "Model name",
-    else ``platform.processor()``, else "unknown"."""
+    """The CPU's model name with its family and model numbers ("AMD EPYC (family 25, model
+    17)": a virtual machine's name alone can be as vague as that): /proc/cpuinfo's, else
+    ``lscpu``'s, else ``platform.processor()``, else "unknown"."""
+    fields = {}
     try:
         with open("/proc/cpuinfo") as f:
             for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
+                key, _, value = line.partition(":")
+                fields.setdefault(key.strip().lower(), value.strip())
+                if not line.strip():
+                    break  # the first processor's block
     except OSError:
         pass
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, timeout=10).stdout
-    except (OSError, subprocess.SubprocessError):
-        out = ""
-    for line in out.splitlines():
-        if line.strip().lower().startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return platform.processor() or "unknown"
+    if "model name" not in fields:
+        try:
+            out = subprocess.run(["lscpu"], capture_output=True, text=True, timeout=10).stdout
+        except (OSError, subprocess.SubprocessError):
+            out = ""
+        for line in out.splitlines():
+            key, _, value = line.partition(":")
+            key = {"cpu family": "cpu family", "model": "model", "model name": "model name"}.get(key.strip().lower())
+            if key:
+                fields.setdefault(key, value.strip())
+    name = fields.get("model name") or platform.processor() or "unknown"
+    if fields.get("cpu family") and fields.get("model"):
+        name += f" (family {fields['cpu family']}, model {fields['model']})"
+    return name
 
 
 def load_average() -> list[float]:
