@@ -28,11 +28,19 @@ def _cost(lo, hi, left, c_i, parent_area):
     return SAH_COST_TRAVERSE + c_i * (a_l * left.sum() + a_r * right.sum()) / parent_area
 
 
-def _best_cost(lo, hi, centre, c_i):
+def _best_cost(lo, hi, centre, c_i, oriented=False):
     """The twin: the cheapest split at a boundary of 16 bins per axis (the kernel's bin
-    of a centre, in float32), over every axis whose centres spread."""
+    of a centre, in float32), over every axis whose centres spread; with ``oriented`` (3D
+    builds) also the orientation splits: the boxes longest along one spatial axis (their
+    float32 extents, the first of equal ones) against the rest."""
     parent = max(_area4(lo.min(0), hi.max(0)), 1.0e-30)
     best = np.inf
+    if oriented:
+        longest = np.argmax((hi.astype(np.float32) - lo.astype(np.float32))[:, 1:], axis=1)
+        for axis in range(3):
+            left = longest == axis
+            if left.any() and not left.all():
+                best = min(best, _cost(lo, hi, left, c_i, parent))
     for axis in range(4):
         c = centre[:, axis]
         lo_c, extent = c.min(), c.max() - c.min()
@@ -64,14 +72,8 @@ def _ranges(bvh):
     return ranges
 
 
-@pytest.mark.parametrize("primitive, leaf_size, uniform_t, n", [
-    ("tri", 4, True, 3000), ("prism", 4, False, 2000), ("rigid", 1, False, 700), ("tri", 4, True, SPLIT_MIN + 904)])
-def test_every_split_is_the_cheapest_bin_boundary(primitive, leaf_size, uniform_t, n):
-    """Law: at every inner node the builder's partition costs what the twin's cheapest
-    bin boundary costs (to RTOL), and every leaf over ``leaf_size`` primitives costs no
-    more than its cheapest split. Clustered boxes of several sizes, so the axes and bins
-    matter; the last case is large enough for the top levels and the subtrees to be built
-    in two launches."""
+def _clustered(n, uniform_t):
+    """Clustered boxes of several sizes, so the axes and bins matter."""
     rng = np.random.default_rng(n)
     centres = rng.normal(size=(8, 4)) * [3.0, 4.0, 2.0, 1.0]
     c = centres[rng.integers(0, 8, n)] + rng.normal(size=(n, 4)) * [0.5, 1.0, 0.3, 0.2]
@@ -79,7 +81,35 @@ def test_every_split_is_the_cheapest_bin_boundary(primitive, leaf_size, uniform_
     lo, hi = c - half, c + half
     if uniform_t:
         lo[:, 0], hi[:, 0] = 0.0, 1.0e3
-    bvh = build_bvh(lo, hi, primitive, leaf_size=leaf_size, uniform_t=uniform_t)
+    return lo, hi
+
+
+def _reticles(copies):
+    """``copies`` coincident reticles (the aberration stage's static copy): 21 lines along
+    x and 21 along y, 0.12 wide and 20 long, a unit apart, and a cross of one line each way
+    through the middle. Each line along x shares its centre with one along y (the cross's
+    two lines share theirs exactly), so no bin boundary separates the two directions."""
+    lines = []
+    for k in range(-10, 11):
+        lines += [((-10.0, k - 0.06), (10.0, k + 0.06)), ((k - 0.06, -10.0), (k + 0.06, 10.0))]
+    lines += [((-10.0, -0.03), (10.0, 0.03)), ((-0.03, -10.0), (0.03, 10.0))]
+    box = np.array([[0.0, x0, y0, -10.0, 1.0e3, x1, y1, -10.0] for (x0, y0), (x1, y1) in lines] * copies)
+    return box[:, :4], box[:, 4:]
+
+
+@pytest.mark.parametrize("primitive, leaf_size, uniform_t, n", [
+    ("tri", 4, True, 3000), ("prism", 4, False, 2000), ("rigid", 1, False, 700), ("tri", 4, True, SPLIT_MIN + 904),
+    ("tri", 4, True, -17)])
+def test_every_split_is_the_cheapest_bin_boundary(primitive, leaf_size, uniform_t, n):
+    """Law: at every inner node the builder's partition costs what the twin's cheapest
+    split costs (to RTOL), and every leaf over ``leaf_size`` primitives costs no more than
+    its cheapest split. Clustered boxes (``_clustered``); the fourth case is large enough
+    for the top levels and the subtrees to be built in two launches; the last (n < 0) is
+    -n coincident reticles (``_reticles``), where only the orientation split of a 3D build
+    separates the crossing lines (without it, a node of both directions fails the law)."""
+    lo, hi = _reticles(-n) if n < 0 else _clustered(n, uniform_t)
+    n = len(lo)
+    bvh = build_bvh(lo, hi, primitive, leaf_size=leaf_size, uniform_t=uniform_t, oriented=uniform_t)
     c_i = SAH_COST_INTERSECT[primitive]
     # The kernel's inputs: float32 boxes and centres.
     lo32, hi32 = lo.astype(np.float32), hi.astype(np.float32)
@@ -91,7 +121,7 @@ def test_every_split_is_the_cheapest_bin_boundary(primitive, leaf_size, uniform_
             assert children is None
             continue
         blo, bhi = lo32[prims].astype(np.float64), hi32[prims].astype(np.float64)
-        best, parent = _best_cost(blo, bhi, centre32[prims], c_i)
+        best, parent = _best_cost(blo, bhi, centre32[prims], c_i, oriented=uniform_t)
         if children is None:
             assert s1 - s0 <= SAH_MAX_LEAF and c_i * (s1 - s0) <= best * (1 + RTOL), (s0, s1)
         else:

@@ -68,8 +68,8 @@ def shape_tree(points: np.ndarray, triangles: np.ndarray, threads: int = 2):
     size = float(np.max(column_max(hi[:, 1:]) - column_min(lo[:, 1:]))) if n else 1.0
     hi[:, 0] = 1.0e3 * max(size, 1.0e-30)
     mid[:, 0] = 0.5 * hi[:, 0]  # the float32 (lo + hi) / 2 of the other axes
-    bvh = build_bvh(plo, phi, "tri", leaf_size=SHAPE_LEAF, uniform_t=True, threads=threads, float32_boxes=True,
-                    centre=centre)
+    bvh = build_bvh(plo, phi, "tri", leaf_size=SHAPE_LEAF, uniform_t=True, oriented=True, threads=threads,
+                    float32_boxes=True, centre=centre)
     e = np.maximum(bvh.node_hi[:, 1:].astype(np.float64) - bvh.node_lo[:, 1:], 0.0)
     wide = collapse(bvh, area=e[:, 0] * e[:, 1] + e[:, 1] * e[:, 2] + e[:, 2] * e[:, 0])  # the largest opened
     q, frame = quantised_boxes(bvh.node_lo, bvh.node_hi, wide.slot_node)
@@ -181,7 +181,7 @@ def _build_trees(shapes_in: list, built: list) -> dict:
     cores = os.cpu_count() or 1
     if min(len(built), cores) <= 1:
         return {s: shape_tree(*shapes_in[s]) for s in built}
-    load_builder("tri", leaf_size=SHAPE_LEAF, uniform_t=True)  # the same kernel as shape_tree's builds
+    load_builder("tri", leaf_size=SHAPE_LEAF, uniform_t=True, oriented=True)  # the same kernel as shape_tree's builds
     import warp as wp
 
     from warp_st.kernels import blas_build

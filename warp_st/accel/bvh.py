@@ -69,11 +69,14 @@ class FlatBVH:
 
 
 def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", *, leaf_size: int = LEAF_SIZE,
-              uniform_t: bool = False, threads: int = 2, float32_boxes: bool = False, centre=None) -> FlatBVH:
+              uniform_t: bool = False, oriented: bool = False, threads: int = 2, float32_boxes: bool = False,
+              centre=None) -> FlatBVH:
     """Build the BVH over primitive boxes ``prim_lo``/``prim_hi`` of shape (N, 4);
     ``primitive`` picks the SAH intersection cost; ranges of ``leaf_size`` primitives or
     fewer always become leaves (larger ones when the SAH says so). ``uniform_t``: every
     box has the same time extent (a 3D build: the same tree, built faster).
+    ``oriented``: each node also weighs the split of its boxes by their longest spatial axis
+    (``kernels/bvh_build``; the bottom levels' builds: crossing thin triangles).
     ``threads``: 2 builds the subtrees of a large build on two threads, 1 on the calling
     thread alone (for builds that already run side by side: the same tree).
     ``float32_boxes``: the boxes are float32 numbers (a bottom level's triangles), so are
@@ -97,13 +100,12 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
         centre = wp.array((0.5 * (prim_lo + prim_hi)).astype(np.float32), dtype=wp.vec4, device="cpu")
     else:
         plo, phi = prim_lo, prim_hi
-    first, count, order, depth, plo, phi = _sah_topology(plo, phi, centre, SAH_COST_INTERSECT[primitive], leaf_size,
-                                                         uniform_t, threads)
+    kernels = _sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t, oriented)
+    first, count, order, depth, plo, phi = _sah_topology(plo, phi, centre, kernels[0], threads)
     if float32_boxes:
-        lo, hi = _bounds32(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t)[1], first, count, plo, phi)
+        lo, hi = _bounds32(kernels[1], first, count, plo, phi)
     else:
-        lo, hi = _bounds64(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t)[2], first, count, order,
-                           prim_lo, prim_hi)
+        lo, hi = _bounds64(kernels[2], first, count, order, prim_lo, prim_hi)
     return FlatBVH(
         node_lo=lo,
         node_hi=hi,
@@ -115,17 +117,18 @@ def build_bvh(prim_lo: np.ndarray, prim_hi: np.ndarray, primitive: str = "tet", 
     )
 
 
-def load_builder(primitive: str = "tet", *, leaf_size: int = LEAF_SIZE, uniform_t: bool = False) -> None:
+def load_builder(primitive: str = "tet", *, leaf_size: int = LEAF_SIZE, uniform_t: bool = False,
+                 oriented: bool = False) -> None:
     """Make and load the tree kernel ``build_bvh`` uses with these arguments (and the
     node-box kernels, in its module), on the calling thread, so that builds on other
     threads only launch them (Warp's code generation parses Python with ``ast``, which
     CPython 3.11 does not allow on two threads at once: docs/design/two-level.md)."""
     import warp as wp
 
-    wp.load_module(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t)[0].module, device="cpu")
+    wp.load_module(_sah_kernel(SAH_COST_INTERSECT[primitive], leaf_size, uniform_t, oriented)[0].module, device="cpu")
 
 
-def _sah_topology(plo, phi, centre, cost_intersect: float, leaf_size: int, uniform_t: bool, threads: int):
+def _sah_topology(plo, phi, centre, kernel, threads: int):
     """Node ranges by binned SAH (``kernels/bvh_build.sah_tree``): the node slots' first
     child or primitive and count (children after their parent, side by side, the left
     subtree before the right one), the order, the tree's depth and the primitive boxes
@@ -134,7 +137,6 @@ def _sah_topology(plo, phi, centre, cost_intersect: float, leaf_size: int, unifo
     to 2): the slots are the same for any thread count."""
     import warp as wp
 
-    kernel = _sah_kernel(cost_intersect, leaf_size, uniform_t)[0]
     n = len(plo)
     order_w = wp.array(np.arange(n, dtype=np.int32), dtype=wp.int32, device="cpu")
     split = n >= SPLIT_MIN
@@ -185,14 +187,14 @@ def _sah_topology(plo, phi, centre, cost_intersect: float, leaf_size: int, unifo
 _SAH_KERNELS: dict = {}
 
 
-def _sah_kernel(cost_intersect: float, leaf_size: int, uniform_t: bool = False):
+def _sah_kernel(cost_intersect: float, leaf_size: int, uniform_t: bool = False, oriented: bool = False):
     """The tree kernel and the node-box kernels (one module, ``kernels/bvh_build``) for one
     intersection cost and leaf size, made once per process."""
     from warp_st.kernels.bvh_build import make_sah_build
 
-    key = (cost_intersect, leaf_size, uniform_t)
+    key = (cost_intersect, leaf_size, uniform_t, oriented)
     if key not in _SAH_KERNELS:
-        _SAH_KERNELS[key] = make_sah_build(leaf_size, SAH_MAX_LEAF, SAH_COST_TRAVERSE, cost_intersect, uniform_t)
+        _SAH_KERNELS[key] = make_sah_build(leaf_size, SAH_MAX_LEAF, SAH_COST_TRAVERSE, cost_intersect, uniform_t, oriented)
     return _SAH_KERNELS[key]
 
 

@@ -28,11 +28,13 @@ BINS = 16
 STACK = MAX_DEPTH + 2
 
 
-def make_sah_build(min_leaf: int, max_leaf: int, cost_traverse: float, cost_intersect: float, uniform_t: bool = False):
+def make_sah_build(min_leaf: int, max_leaf: int, cost_traverse: float, cost_intersect: float, uniform_t: bool = False,
+                   oriented: bool = False):
     """The tree kernel and the node-box kernels (float32 boxes in leaf order, float64
     ones through the order), in one module (loaded together);
     ``uniform_t``: every primitive has the same time extent (a 3D build,
-    ``accel/blas.py``), so the time axis gets no bins (the same trees)."""
+    ``accel/blas.py``), so the time axis gets no bins (the same trees); ``oriented``: each
+    node also weighs the orientation split (``split``)."""
     T0 = 1 if uniform_t else 0
     vec4 = wp.vec4
     bins_i = wp.types.vector(BINS, wp.int32)
@@ -41,11 +43,25 @@ def make_sah_build(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
     axes_i = wp.types.vector(AXES * BINS, wp.int32)
     axes_box = wp.types.matrix(shape=(AXES * BINS, 4), dtype=wp.float32)  # a bin box corner a row
     BIG = 3.0e38
+    # The orientation split's best_axis is ORIENTED + the axis (``split``).
+    ORIENT = bool(oriented)
+    ORIENTED = 8
 
     @wp.func
     def area4(lo: vec4, hi: vec4) -> float:
         e = wp.max(hi - lo, vec4(0.0))
         return e[0] * (e[1] * e[2] + e[2] * e[3] + e[3] * e[1]) + e[1] * e[2] * e[3]
+
+    @wp.func
+    def longest(lo: vec4, hi: vec4) -> int:
+        """The spatial axis (1-3: x, y, z) along which the box is longest, the first of equals."""
+        e = hi - lo
+        a = int(1)
+        if e[2] > e[a]:
+            a = 2
+        if e[3] > e[a]:
+            a = 3
+        return a
 
     @wp.func
     def bin_of(c: float, lo: float, scale: float) -> int:
@@ -91,6 +107,15 @@ def make_sah_build(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
             for b in range(AXES * BINS):
                 box_lo[b] = vec4(BIG)
                 box_hi[b] = vec4(-BIG)
+            # ``oriented``: the primitives grouped by their boxes' longest axis (``longest``)
+            # for the orientation split below, in the same pass.
+            if wp.static(ORIENT):
+                o_count = wp.vec4i(0)
+                o_lo = wp.mat44f()
+                o_hi = wp.mat44f()
+                for a in range(4):
+                    o_lo[a] = vec4(BIG)
+                    o_hi[a] = vec4(-BIG)
             for k in range(s0, s1):
                 cp = centre[k]
                 lo = plo[k]
@@ -101,6 +126,11 @@ def make_sah_build(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                         count[b] = count[b] + 1
                         box_lo[b] = wp.min(box_lo[b], lo)
                         box_hi[b] = wp.max(box_hi[b], hi)
+                if wp.static(ORIENT):
+                    a = longest(lo, hi)
+                    o_count[a] = o_count[a] + 1
+                    o_lo[a] = wp.min(o_lo[a], lo)
+                    o_hi[a] = wp.max(o_hi[a], hi)
             for axis in range(T0, 4):
                 if scales[axis] > 0.0:
                     o = (axis - T0) * BINS
@@ -136,15 +166,42 @@ def make_sah_build(min_leaf: int, max_leaf: int, cost_traverse: float, cost_inte
                                     best_cost = cost
                                     best_axis = axis
                                     best_bin = j
+            if wp.static(ORIENT):
+                # The orientation split: the primitives longest along one axis against the
+                # rest. Crossing thin primitives (a reticle's lines, a plus sign) share
+                # their centres, so no bin boundary separates them; this does.
+                for a in range(1, 4):
+                    if o_count[a] > 0 and o_count[a] < n:
+                        rlo = vec4(BIG)
+                        rhi = vec4(-BIG)
+                        for b in range(1, 4):
+                            if b != a:
+                                rlo = wp.min(rlo, o_lo[b])
+                                rhi = wp.max(rhi, o_hi[b])
+                        cost = cost_traverse + cost_intersect * (
+                            area4(o_lo[a], o_hi[a]) * float(o_count[a]) + area4(rlo, rhi) * float(n - o_count[a])
+                        ) / parent_area
+                        if cost < best_cost:
+                            best_cost = cost
+                            best_axis = ORIENTED + a
+                            best_bin = 0
             if n <= max_leaf and cost_intersect * float(n) <= best_cost:
                 return -1  # a leaf is cheaper
         mid = s0 + n / 2
         if best_axis >= 0:
-            scale = float(BINS) / (chi[best_axis] - clo[best_axis])
+            binned = best_axis < ORIENTED
+            axis = wp.where(binned, best_axis, 0)
+            scale = float(BINS) / wp.max(chi[axis] - clo[axis], 1.0e-30)
             lo_i = s0
             hi_i = s1 - 1
             while lo_i <= hi_i:
-                if bin_of(centre[lo_i][best_axis], clo[best_axis], scale) <= best_bin:
+                left = int(0)
+                if binned:
+                    if bin_of(centre[lo_i][axis], clo[axis], scale) <= best_bin:
+                        left = 1
+                elif longest(plo[lo_i], phi[lo_i]) == best_axis - ORIENTED:
+                    left = 1
+                if left != 0:
                     lo_i += 1
                 else:
                     tmp = order[lo_i]
