@@ -2,7 +2,8 @@
 
 Every distinct shape of ``spacetime.rigid.RigidShapes`` gets a bounding volume hierarchy
 over its float32 triangles in body coordinates, built by our binned SAH builder
-(``bvh.build_bvh``, a Warp kernel building the tree depth first) and collapsed to 4-wide nodes
+(``bvh.build_bvh``, a Warp kernel building the tree depth first; each node also weighs the
+split by the triangles' longest axis, ``oriented``) and collapsed to 4-wide nodes
 (``bvh_wide.collapse``), the same trees the top level uses. The builder is 4D: a
 triangle's box gets the time extent [0, L] with L a thousand times the shape's size,
 so its "surface" e_t (e_x e_y + e_y e_z + e_z e_x) + e_x e_y e_z is the 3D surface area

@@ -11,8 +11,11 @@ primitives' centres and boxes with it, so every pass reads them in sequence, not
 the order (the same trees). The 4D analogue of
 a box's surface area is the sum of its 3-volumes, e_t (e_x e_y + e_y e_z + e_z e_x) +
 e_x e_y e_z: for boxes sharing one time extent (bodies at rest) it orders splits like
-the 3D surface area does. A second kernel of the same module reduces every node's box
-from the partitioned primitives (float32 boxes: the bottom levels, ``accel/blas.py``).
+the 3D surface area does. With ``oriented`` (the bottom levels) a node also weighs the
+split of its primitives by their boxes' longest spatial axis, which separates crossing
+thin triangles whose centres coincide (docs/design/two-level.md, "The orientation split").
+A second kernel of the same module reduces every node's box from the partitioned
+primitives (float32 boxes: the bottom levels, ``accel/blas.py``).
 """
 from typing import Any
 
