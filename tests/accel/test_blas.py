@@ -31,7 +31,7 @@ from blas_twin import make_blas_twin
 from warp_st.accel.blas import BottomLevels
 from warp_st.core import tessellate
 from warp_st.kernels import get_kernels
-from warp_st.kernels.blas import make_blas_query
+from warp_st.kernels.blas import make_blas_query, ray_inv, ray_shear
 from warp_st.kernels.layout import LINK_SHIFT, WIDTH
 from warp_st.rendering.warp_init import init_warp
 
@@ -46,7 +46,17 @@ EDGE_TOL = 1.0e-6
 
 #: The rigid path's Geometry; only its bottom-level arrays are set here.
 Blas = get_kernels("float32", "rigid").Geometry
-_query = make_blas_query(Blas)[0]
+_sheared = make_blas_query(Blas)
+
+
+@wp.func
+def _query(g: Blas, root: int, vert: int, tri0: int, p: wp.vec3, d: wp.vec3, t_max: float, any_hit: int,
+           tri_base: int, skip_body: int, skip_t: float, skip_tri: int):
+    """The query of direction ``d``, as the twin takes it: its shear and reciprocals made
+    here (so the twin's own, in the Warp language, check them too)."""
+    hit, t, u, v, face = _sheared(g, root, vert, tri0, p, ray_shear(d), ray_inv(d), t_max, any_hit, tri_base, skip_body,
+                                  skip_t, skip_tri)
+    return hit, t, u, v, face
 _twin = make_blas_twin(Blas)
 
 

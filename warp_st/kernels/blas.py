@@ -3,10 +3,12 @@
 The tree is ``accel/blas.py``'s (every shape's nodes and triangles in shared arrays,
 ``Geometry.blas_*``). ``make_blas_query(Geometry)`` gives
 
-    blas_query(g, root, vert, tri0, p, d, t_max, any_hit, tri_base, skip_body, skip_t, skip_tri)
-        -> (hit, t, u, v, face)
+    blas_query(g, root, vert, tri0, p, shear, inv, t_max, any_hit, tri_base, skip_body, skip_t,
+               skip_tri) -> (hit, t, u, v, face)
 
-the closest (with ``any_hit``, any) crossing of the float32 ray p + t d, t in
+the closest (with ``any_hit``, any) crossing of the float32 ray p + t d, given by its
+direction's ``ray_shear(d)`` and ``ray_inv(d)`` (a caller tracing one direction into
+several bottom levels computes them once), t in
 [0, t_max], with the triangles under wide node ``root``; with ``skip_body`` >= 0 (a
 merged shape holds several bodies) leaving out the global triangle ``skip_tri`` and
 those of that body (``g.tri_body`` of the global triangle ``tri_base`` + face) nearer
@@ -40,7 +42,7 @@ from warp_st.kernels.layout import LINK_MASK, LINK_SHIFT
 from warp_st.kernels.native import float_bits, snippet
 from warp_st.kernels.traverse import STACK_SIZE, make_box_ops
 
-__all__ = ["make_blas_query"]
+__all__ = ["make_blas_query", "ray_shear", "ray_inv"]
 
 
 @wp.func_native(snippet("blas_query.inc", STACK=STACK_SIZE, SHIFT=LINK_SHIFT, MASK=LINK_MASK,
@@ -69,14 +71,9 @@ def ray_inv(d: wp.vec3) -> wp.vec3:
 
 
 def make_blas_query(Geometry):
-    """(blas_query, blas_query_sheared): the query of the module docstring, and the same
-    with the direction given as its ``ray_shear`` and ``ray_inv`` (a caller tracing one
-    direction into several bottom levels computes them once)."""
-
     @wp.func(inline=True)
-    def blas_query_sheared(g: Geometry, root: int, vert: int, tri0: int, p: wp.vec3, shear: wp.vec4, inv: wp.vec3,
-                           t_max: wp.float32, any_hit: int, tri_base: int, skip_body: int, skip_t: wp.float32,
-                           skip_tri: int):
+    def blas_query(g: Geometry, root: int, vert: int, tri0: int, p: wp.vec3, shear: wp.vec4, inv: wp.vec3,
+                   t_max: wp.float32, any_hit: int, tri_base: int, skip_body: int, skip_t: wp.float32, skip_tri: int):
         r = native_query(g.shape_vidx, g.blas_points, g.blas_q, g.blas_frame, g.blas_link, g.tri_body, root, vert, tri0,
                          p, shear, inv, t_max, any_hit, tri_base, skip_body, skip_t, skip_tri)
         slot = float_bits(r[3])
@@ -85,11 +82,4 @@ def make_blas_query(Geometry):
             hit = 1
         return hit, r[0], r[1], r[2], slot - tri0
 
-    @wp.func(inline=True)
-    def blas_query(g: Geometry, root: int, vert: int, tri0: int, p: wp.vec3, d: wp.vec3, t_max: wp.float32, any_hit: int,
-                   tri_base: int, skip_body: int, skip_t: wp.float32, skip_tri: int):
-        hit, t, u, v, face = blas_query_sheared(g, root, vert, tri0, p, ray_shear(d), ray_inv(d), t_max, any_hit,
-                                                tri_base, skip_body, skip_t, skip_tri)
-        return hit, t, u, v, face
-
-    return blas_query, blas_query_sheared
+    return blas_query

@@ -155,7 +155,7 @@ def make_trace_rigid(scalar, tets: bool = False):
             tets: TetGeometry
             tet_first: int
 
-    blas_query_sheared = make_blas_query(Geometry)[1]
+    blas_query = make_blas_query(Geometry)
 
     @wp.func
     def reciprocal(d: wp.vec3d) -> wp.vec3d:
@@ -188,7 +188,10 @@ def make_trace_rigid(scalar, tets: bool = False):
         r.inv64 = reciprocal(r.n64)
         n32 = wp.vec3(wp.float32(n[0]), wp.float32(n[1]), wp.float32(n[2]))
         r.shear = ray_shear(n32)
-        r.inv32 = ray_inv(n32)
+        if wp.static(scalar == wp.float32):
+            r.inv32 = wp.vec3(r.inv[1], r.inv[2], r.inv[3])  # ray_inv(n): the same safe_inv, done above
+        else:
+            r.inv32 = ray_inv(n32)
         return r
 
     @wp.func
@@ -372,10 +375,10 @@ def make_trace_rigid(scalar, tets: bool = False):
                     attempt = int(0)  # a while loop: a constant range would be unrolled
                     while attempt < 4 and e0 < e1:
                         attempt += 1
-                        found, qt, qu, qv, face = blas_query_sheared(g, root, g.body_blas_vert[body],
-                                                                     g.body_shape_tri[body], at(pm, dm, e0), shear,
-                                                                     inv32, wp.float32(e1 - e0), shadow, base, filtered,
-                                                                     wp.float32(wp.float64(skip_dist) - e0), skip_tri)
+                        found, qt, qu, qv, face = blas_query(g, root, g.body_blas_vert[body], g.body_shape_tri[body],
+                                                             at(pm, dm, e0), shear, inv32, wp.float32(e1 - e0), shadow,
+                                                             base, filtered, wp.float32(wp.float64(skip_dist) - e0),
+                                                             skip_tri)
                         if found == 0:
                             e1 = wp.float64(-1.0)
                         elif shadow != 0:

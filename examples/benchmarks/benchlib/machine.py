@@ -37,9 +37,8 @@ def cpu_model() -> str:
             out = ""
         for line in out.splitlines():
             key, _, value = line.partition(":")
-            key = {"cpu family": "cpu family", "model": "model", "model name": "model name"}.get(key.strip().lower())
-            if key:
-                fields.setdefault(key, value.strip())
+            if key.strip().lower() in ("cpu family", "model", "model name"):
+                fields.setdefault(key.strip().lower(), value.strip())
     name = fields.get("model name") or platform.processor() or "unknown"
     if fields.get("cpu family") and fields.get("model"):
         name += f" (family {fields['cpu family']}, model {fields['model']})"
