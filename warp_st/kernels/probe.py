@@ -1,11 +1,14 @@
 """Ray-query kernels for tests and benchmarks: arbitrary null rays, BVH or brute force."""
 import warp as wp
 
+from warp_st.kernels.traverse import make_null_inv
+
 __all__ = ["make_probe"]
 
 
 def make_probe(scalar, vec3, vec4, Geometry, trace, prepare, leaf):
     FAR = 1.0e30
+    null_inv = make_null_inv(scalar)
 
     @wp.kernel(enable_backward=False, module="unique")
     def cast_rays(
@@ -40,7 +43,7 @@ def make_probe(scalar, vec3, vec4, Geometry, trace, prepare, leaf):
         i = wp.tid()
         o = origins[i]
         n = dirs[i]
-        ray = prepare(geo, o, n, finite)
+        ray = prepare(geo, o, n, finite, null_inv(n, finite))
         best, best_prim, _lam = leaf(geo, ray, 0, prim_count, o, n, finite, scalar(0.0), scalar(FAR), int(-1),
                                      vec4(scalar(0.0)), -1, -1, scalar(0.0), 0)
         out_prim[i] = best_prim

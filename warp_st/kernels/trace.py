@@ -323,7 +323,7 @@ def make_trace(scalar, primitive: str = "prism"):
         rest_org: dvec3
 
     @wp.func
-    def prepare(g: Geometry, o: vec4, n: vec3, finite: int) -> Ray:
+    def prepare(g: Geometry, o: vec4, n: vec3, finite: int, inv: vec4) -> Ray:  # inv: unused here
         r = Ray()
         u, w = ray_basis(n)
         r.nd = to_d(n)

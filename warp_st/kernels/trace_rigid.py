@@ -81,8 +81,8 @@ def make_trace_rigid(scalar, tets: bool = False):
     vec24ub = wp.types.vector(24, wp.uint8)
     vec6f = wp.types.vector(6, wp.float32)
     solid_interval = make_quadrics()
-    fmin, fmax, safe_inv, SLAB_GROW = make_box_ops(scalar)
-    BIG = 1.0e30
+    fmin, fmax, _safe_inv, SLAB_GROW = make_box_ops(scalar)
+    fmin64, fmax64 = make_box_ops(wp.float64)[:2]  # single compare-selects: no slab value is NaN
     # A hit on the triangle a secondary ray leaves (skip_tri) is stepped over by this
     # fraction of its lookback (and as much absolutely): far past the float32 rounding of
     # the crossing (~1e-7), far below the self-intersection offset SELF_EPS (1e-4).
@@ -176,20 +176,18 @@ def make_trace_rigid(scalar, tets: bool = False):
         inv32: wp.vec3
 
     @wp.func
-    def prepare(g: Geometry, o: vec4, n: vec3, finite: int) -> Ray:
+    def prepare(g: Geometry, o: vec4, n: vec3, finite: int, inv: vec4) -> Ray:
         r = Ray()
-        inv_t = scalar(BIG)
         r.fin = scalar(0.0)
         if finite != 0:
-            inv_t = scalar(-1.0)
             r.fin = scalar(1.0)
-        r.inv = vec4(inv_t, safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
+        r.inv = inv
         r.n64 = wp.vec3d(wp.float64(n[0]), wp.float64(n[1]), wp.float64(n[2]))
         r.inv64 = reciprocal(r.n64)
         n32 = wp.vec3(wp.float32(n[0]), wp.float32(n[1]), wp.float32(n[2]))
         r.shear = ray_shear(n32)
         if wp.static(scalar == wp.float32):
-            r.inv32 = wp.vec3(r.inv[1], r.inv[2], r.inv[3])  # ray_inv(n): the same safe_inv, done above
+            r.inv32 = wp.vec3(r.inv[1], r.inv[2], r.inv[3])  # ray_inv(n): the same safe_inv, in null_inv
         else:
             r.inv32 = ray_inv(n32)
         return r
@@ -222,13 +220,15 @@ def make_trace_rigid(scalar, tets: bool = False):
     def rest_range(lo: wp.vec3d, hi: wp.vec3d, p: wp.vec3d, d: wp.vec3d, inv: wp.vec3d, s0: wp.float64,
                    s1: wp.float64):
         """[s0, s1] cut to where r(s) = p + s d lies in the box [lo, hi] (float64 slabs,
-        ``inv`` = reciprocal(d); empty: s0 >= s1)."""
+        ``inv`` = reciprocal(d); empty: s0 >= s1). No slab value is NaN (an axis with
+        d = 0 is told apart, and 1 / d of a float32 direction is finite), so the minima
+        and maxima are single compare-selects."""
         for k in range(3):
             if d[k] != wp.float64(0.0):
                 a = (lo[k] - p[k]) * inv[k]
                 b = (hi[k] - p[k]) * inv[k]
-                s0 = wp.max(s0, wp.min(a, b))
-                s1 = wp.min(s1, wp.max(a, b))
+                s0 = fmax64(s0, fmin64(a, b))
+                s1 = fmin64(s1, fmax64(a, b))
             elif p[k] < lo[k] or p[k] > hi[k]:
                 s1 = wp.float64(-1.0)
         return s0, s1
@@ -277,7 +277,10 @@ def make_trace_rigid(scalar, tets: bool = False):
         the segment's span (possible where a lifetime or a cut between segments ends it
         inside the box) is discarded and the query repeated from past it: from the
         lifetime's end if the hit lies beyond that (the start is still the body's), else
-        from the span's start (then the dropped hit is another segment's, and nearer)."""
+        from the span's start (then the dropped hit is another segment's, and nearer).
+        A leaf of one segment skips the segment's 4D box test: the node's visit has just
+        tested the same box (its child's), and the rest-box slabs and the span test
+        below decide alike."""
         # best_lam as four scalars (see traverse.py's trace): no vector merged under a branch
         lam0 = best_lam[0]
         lam1 = best_lam[1]
@@ -320,8 +323,11 @@ def make_trace_rigid(scalar, tets: bool = False):
                 s_hi = fmin(s_hi, o[0] - span[0])
             elif o[0] < span[0] or o[0] > span[1]:
                 s_hi = scalar(-1.0)
-            b_lo, b_hi = box_range(g.seg_lo[si], g.seg_hi[si], o, ray.inv, s_lo, s_hi)
-            if s_lo < s_hi and b_lo <= b_hi:
+            met = s_lo < s_hi
+            if met and count > 1:  # a leaf of one segment: the node's visit just tested its box
+                b_lo, b_hi = box_range(g.seg_lo[si], g.seg_hi[si], o, ray.inv, s_lo, s_hi)
+                met = b_lo <= b_hi
+            if met:
                 flags = g.body_flags[body]
                 p = wp.vec3d()
                 d = ray.n64

@@ -10,8 +10,9 @@ count 0; -1 for an empty slot), the root wide node 0 with its box ``root_lo``/``
 The leaves are the caller's: prisms or tetrahedra (``trace.py``), rigid bodies' motion
 segments (``trace_rigid.py``). ``make_traverse`` takes
 
-- ``prepare(g, o, n, finite) -> Ray``: what the leaf test needs per ray, computed once
-  after the root box test (rays that miss the whole database return before it);
+- ``prepare(g, o, n, finite, inv) -> Ray``: what the leaf test needs per ray, computed once
+  after the root box test (rays that miss the whole database return before it); ``inv``
+  is the ray's ``null_inv``, which the traversal has computed for its slabs;
 - ``leaf(g, ray, first, count, o, n, finite, s_min, best, best_prim, best_lam,
   skip_tri, skip_body, skip_dist, any_hit) -> (best, best_prim, best_lam)``: the closest
   hit so far updated by primitives first .. first + count - 1.
@@ -29,7 +30,7 @@ import warp as wp
 from warp_st.kernels.layout import LINK_MASK, LINK_SHIFT, MAX_WIDE_DEPTH
 from warp_st.kernels.native import float_bits, snippet
 
-__all__ = ["make_traverse", "make_box_ops", "make_sort4", "STACK_SIZE"]
+__all__ = ["make_traverse", "make_box_ops", "make_null_inv", "make_sort4", "STACK_SIZE"]
 
 #: Traversal stack entries: a visit pushes at most three children, so three per level
 #: of the wide tree (bvh_wide.MAX_WIDE_DEPTH) bound it. Zero-initialised per ray, so
@@ -65,6 +66,24 @@ def make_box_ops(scalar):
         return scalar(1.0) / x
 
     return fmin, fmax, safe_inv, SLAB_GROW
+
+
+def make_null_inv(scalar):
+    """``null_inv(n, finite)``: 1 / d per axis of the null ray's d = (-1, n), or (0, n)
+    with infinite light speed (whose t slab then takes 1e30): what the slab tests multiply by."""
+    vec3 = wp.types.vector(3, scalar)
+    vec4 = wp.types.vector(4, scalar)
+    safe_inv = make_box_ops(scalar)[2]
+    BIG = 1.0e30
+
+    @wp.func
+    def null_inv(n: vec3, finite: int) -> vec4:
+        inv_t = scalar(BIG)
+        if finite != 0:
+            inv_t = scalar(-1.0)
+        return vec4(inv_t, safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
+
+    return null_inv
 
 
 def make_sort4(scalar):
@@ -122,9 +141,9 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
     vec16 = wp.types.vector(16, scalar)
     stack_i = wp.types.vector(STACK_SIZE, wp.int32)
     stack_s = wp.types.vector(STACK_SIZE, scalar)
-    BIG = 1.0e30
     INF = float("inf")
-    fmin, fmax, safe_inv, SLAB_GROW = make_box_ops(scalar)
+    fmin, fmax, _safe_inv, SLAB_GROW = make_box_ops(scalar)
+    null_inv = make_null_inv(scalar)
 
     @wp.func
     def box_quad(g: Geometry, node: int, o16: vec16, inv16: vec16, s_min: scalar, s_max: scalar):
@@ -173,11 +192,7 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
         Near child first with a fixed stack; an overflow is reported, never silent.
         """
         g = expand(r)  # the pointers to the struct (see kernels/struct_ref.py)
-        # 1 / dt: dt = -1 on the past lightcone, 0 with infinite light speed.
-        inv_t = scalar(BIG)
-        if finite != 0:
-            inv_t = scalar(-1.0)
-        inv = vec4(inv_t, safe_inv(n[0]), safe_inv(n[1]), safe_inv(n[2]))
+        inv = null_inv(n, finite)  # dt = -1 on the past lightcone, 0 with infinite light speed
         # The scene's box first: rays that miss it (sky) return before any other set-up.
         ra = wp.cw_mul(g.root_lo - o, inv)
         rb = wp.cw_mul(g.root_hi - o, inv)
@@ -194,7 +209,7 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
             for k in range(16):
                 o16[k] = o[k // 4]
                 inv16[k] = inv[k // 4]
-        ray = prepare(g, o, n, finite)
+        ray = prepare(g, o, n, finite, inv)
         best = s_max
         best_prim = int(-1)
         # The hit's barycentrics as four scalars, not a vec4: Warp merges a variable assigned
