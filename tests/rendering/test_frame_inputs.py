@@ -174,7 +174,7 @@ def test_mean_visits_are_the_primary_rays_visits():
                                           wp.array(dirs, dtype=wp.vec3, device="cpu"), 1, prim, s, visits, 0],
               device="cpu")
     expected = visits.numpy().mean()
-    assert expected > 0.2  # a quarter of the rays enter the scene box
+    assert expected > 0.15  # a sixth of the rays enter the scene box (its one leaf: one visit each)
     assert r.stats.last_mean_visits == pytest.approx(expected, rel=0.01)
 
 

@@ -75,6 +75,7 @@ def make_trace(scalar, primitive: str = "prism"):
         node_link: wp.array(dtype=wp.vec4i)
         root_lo: vec4  # the root's box (the whole database)
         root_hi: vec4
+        root_link: int  # where the traversal starts: 0 (wide node 0), or its one child's link
 
     @wp.func
     def ray_basis(n: vec3):

@@ -114,9 +114,9 @@ def make_trace_rigid(scalar, tets: bool = False):
         body_rest: wp.array(dtype=wp.mat33d)
         body_rest_lo: wp.array(dtype=wp.vec3d)  # the shape's box in its frame's coordinates, padded
         body_rest_hi: wp.array(dtype=wp.vec3d)
-        body_start_lo: wp.array(dtype=wp.vec3d)  # the box of every shape held in that frame
+        body_start_lo: wp.array(dtype=wp.vec3d)  # the box of the shapes of that frame it may touch (start_boxes.py)
         body_start_hi: wp.array(dtype=wp.vec3d)
-        # START_OWN: that box is the body's own (the frame holds it alone); AT_REST: the
+        # START_OWN: that box is the body's own (it touches no other body of its frame); AT_REST: the
         # body is at rest with A^-1 = I and not body_mapped, so its ray is the lab ray
         # moved (p = o - anchor, d = n) and its direction, 1 / d and shear are the ray's own
         body_flags: wp.array(dtype=wp.int32)
@@ -143,6 +143,7 @@ def make_trace_rigid(scalar, tets: bool = False):
         node_link: wp.array(dtype=wp.vec4i)
         root_lo: vec4
         root_hi: vec4
+        root_link: int  # where the traversal starts: 0 (wide node 0), or its one child's link
         # The bottom levels (accel/blas.py, kernels/blas.py): every shape's 4-wide 3D
         # BVH over its triangles (shape_vidx, in leaf order), the shapes' rest points and
         # where each body's shape's points start in them.
@@ -268,12 +269,12 @@ def make_trace_rigid(scalar, tets: bool = False):
              any_hit: int):
         """The closest hit so far, updated by the leaf's motion segments (see the module docstring).
 
-        The query starts where the ray enters the rest box of the body's frame (float64,
-        the frame's event as anchor; spacetime/rigid.rigid_shapes): neither depends on
-        the segment, so a hit comes out bit-identical from whichever database (windows,
-        segments) it is found in; bodies sharing a frame get the same float32 ray, so
-        none slips through their seams; and the rounding is of the frame's size, not
-        of the distance. A hit before
+        The query starts where the ray enters the body's start box (float64, the frame's
+        event as anchor): the rest box of the bodies of its frame it may touch
+        (spacetime/start_boxes.py). Neither depends on the segment, so a hit comes out
+        bit-identical from whichever database (windows, segments) it is found in; bodies
+        in contact get the same float32 ray, so none slips through their seams; and the
+        rounding is of their size, not of the distance. A hit before
         the segment's span (possible where a lifetime or a cut between segments ends it
         inside the box) is discarded and the query repeated from past it: from the
         lifetime's end if the hit lies beyond that (the start is still the body's), else
@@ -340,7 +341,7 @@ def make_trace_rigid(scalar, tets: bool = False):
                     inv_d = reciprocal(d)
                 e0, e1 = rest_range(g.body_rest_lo[body], g.body_rest_hi[body], p, d, inv_d, wp.float64(s_from),
                                     wp.float64(s_hi))
-                if e0 < e1 and flags & START_OWN == 0:  # its box is met: start where its frame's is entered
+                if e0 < e1 and flags & START_OWN == 0:  # its box is met: start where its start box is entered
                     e0, _e = rest_range(g.body_start_lo[body], g.body_start_hi[body], p, d, inv_d,
                                         wp.float64(s_from), wp.float64(s_hi))
                 pm = p  # the ray as the bottom level sees it (the same s)

@@ -6,6 +6,8 @@ coordinates. The tree is bvh_wide.py's: wide node j's four child boxes axis-majo
 (t0..t3, x0..x3, y0..y3, z0..z3) in ``node_lo[j]`` / ``node_hi[j]``, its children's links
 ``first << LINK_SHIFT | count`` in ``node_link[j]`` (a leaf's range, or a wide node with
 count 0; -1 for an empty slot), the root wide node 0 with its box ``root_lo``/``root_hi``.
+The traversal starts at ``root_link``: 0, or the root's one child when it has only one
+(whose box is the root's, just tested).
 
 The leaves are the caller's: prisms or tetrahedra (``trace.py``), rigid bodies' motion
 segments (``trace_rigid.py``). ``make_traverse`` takes
@@ -228,7 +230,7 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
         # The traversal carries packed links (first << LINK_SHIFT | count), not node
         # indices: children's links are loaded beside their boxes, so a visit needs
         # no dependent load before its children's boxes.
-        cur = int(0)  # wide node 0, the root
+        cur = g.root_link  # wide node 0, the root (or its one child: the root box test was its)
         while cur >= 0:
             visits += 1
             first = cur >> LINK_SHIFT

@@ -166,6 +166,10 @@ def set_nodes(k: Kernels, g, wide, node_link, bvh: FlatBVH, origin: np.ndarray, 
     g.node_lo = wp.array(lo, dtype=k.vec16, device=_DEVICE)
     g.node_hi = wp.array(hi, dtype=k.vec16, device=_DEVICE)
     g.node_link = node_link
+    # A root of one child (a one-leaf tree) has that child's box, which the root box test
+    # has just tested: the traversal starts at the child.
+    slots = wide.link[0]
+    g.root_link = int(slots[0]) if (slots[1:] < 0).all() else 0
 
 
 def make_shading(

@@ -32,6 +32,7 @@ from warp_st.core.thread_pool import thread_pool
 from warp_st.kernels.quadrics import QUADRIC_CAPSULE, QUADRIC_CONE, QUADRIC_CYLINDER, QUADRIC_SPHERE
 from warp_st.spacetime.extrude import TriangleTables, _body_size, bodies_triangles, bytes_once
 from warp_st.spacetime.merge_classes import merge_plan, merged_bodies, motion_group, pivot_offset
+from warp_st.spacetime.start_boxes import start_boxes
 from warp_st.spacetime.visibility import intervals, union
 
 __all__ = ["RigidShapes", "rigid_shapes", "shading_tables", "renumbered", "triangle_order", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
@@ -62,8 +63,9 @@ class RigidShapes(TriangleTables):
         reference event, or its motion group's.
     body_rest_lo, body_rest_hi: box of the body's shape at rest in its frame's
         coordinates, (B, 3), padded by REST_BOX_PAD of its size (which covers the float32
-        mesh's rounding); body_start_lo, body_start_hi: the box of every body held in
-        that frame (queries start where a ray enters it).
+        mesh's rounding); body_start_lo, body_start_hi: the box of the bodies held in
+        that frame that it may touch (queries start where a ray enters it:
+        ``spacetime/start_boxes.py``).
     rest_from_lab: A^-1 per body, (B, 3, 3) (identity for decoupled bodies).
     body_shape_tri: the row of ``shape_vidx`` where the body's shape starts, (B,) int32:
         a body's triangle k is its shape's, so its global vertex indices are
@@ -242,8 +244,9 @@ def rigid_shapes(scene: Scene, exact_quadrics: bool = False, dtype=np.float32) -
     body's reference event. Every other body is held in the coordinates of its motion
     group (the bodies with its velocity and coupling), about the group's first body's
     reference event: r' = r + A^-1 (o - o_g - v (t_ref - t_g)), the same worldlines. All
-    bodies of a group then see a ray as the same float32 line from the same start (the
-    entry into the group's rest box), so bodies in contact (the walls of a room) meet
+    bodies of a group then see a ray as the same float32 line, and those whose rest boxes
+    meet from the same start (the entry into their cluster's rest box:
+    ``spacetime/start_boxes.py``), so bodies in contact (the walls of a room) meet
     without cracks, as triangles of one mesh do; in body coordinates each would round
     the ray on its own and a ray through their seam could pass between them.
 
@@ -411,12 +414,9 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
         box_lo[h], box_hi[h] = (box_lo[members] + moved).min(axis=0), (box_hi[members] + moved).max(axis=0)
     shape_rest = [np.concatenate(r) if isinstance(r, list) else r for r in shape_rest]
     shape_tris = [np.concatenate(t) if isinstance(t, list) else t for t in shape_tris]
-    # Each body's queries start where the ray enters the rest box of its whole frame.
-    start_lo, start_hi = rest_lo.copy(), rest_hi.copy()
-    for g in np.unique(frame_of[body_shape >= 0]):
-        members = (frame_of == g) & (body_shape >= 0)
-        start_lo[members] = rest_lo[members].min(axis=0)
-        start_hi[members] = rest_hi[members].max(axis=0)
+    # Each body's queries start where the ray enters the rest box of the bodies of its
+    # frame it may touch (spacetime/start_boxes.py).
+    start_lo, start_hi = start_boxes(rest_lo, rest_hi, frame_of, body_shape >= 0)
 
     textured = any(t is not None for m in materials for t in m.textures)
     shape_vidx = np.concatenate(shape_tris) if shape_tris else np.zeros((0, 3), np.int32)
