@@ -6,14 +6,16 @@ coordinates. The tree is bvh_wide.py's: wide node j's four child boxes axis-majo
 (t0..t3, x0..x3, y0..y3, z0..z3) in ``node_lo[j]`` / ``node_hi[j]``, its children's links
 ``first << LINK_SHIFT | count`` in ``node_link[j]`` (a leaf's range, or a wide node with
 count 0; -1 for an empty slot), the root wide node 0 with its box ``root_lo``/``root_hi``.
-The traversal starts at ``root_link``: 0, or the root's one child when it has only one
-(whose box is the root's, just tested).
+The root's test comes first, before the per-ray set-up (``prepare``, the stack): the
+visit of wide node 0, whose nearest child hit is where the traversal starts; or, for a
+root of one child (``root_link``, its link; a top level of one leaf), the slab test of
+the root's box, which is that child's.
 
 The leaves are the caller's: prisms or tetrahedra (``trace.py``), rigid bodies' motion
 segments (``trace_rigid.py``). ``make_traverse`` takes
 
 - ``prepare(g, o, n, finite, inv) -> Ray``: what the leaf test needs per ray, computed once
-  after the root box test (rays that miss the whole database return before it); ``inv``
+  after the root's test (rays that miss the whole database return before it); ``inv``
   is the ray's ``null_inv``, which the traversal has computed for its slabs;
 - ``leaf(g, ray, first, count, o, n, finite, s_min, best, best_prim, best_lam,
   skip_tri, skip_body, skip_dist, any_hit) -> (best, best_prim, best_lam)``: the closest
@@ -172,6 +174,36 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
 
     sort4 = make_sort4(scalar)
 
+    @wp.func(inline=True)
+    def visit(g: Geometry, first: int, o: vec4, inv: vec4, s_min: scalar, best: scalar):
+        """Wide node ``first``'s children: their entries in ascending order (+inf for the
+        missed), their links alongside, and how many are hit. (Inlined by force: a call
+        would copy the Geometry struct, which Warp passes by value.)"""
+        e = vec4()
+        links = g.node_link[first]
+        hits = int(0)
+        if wp.static(use_native):
+            r9 = native_visit(g.node_lo[first], g.node_hi[first], o, inv, s_min, best, links)
+            for k in range(4):
+                e[k] = r9[k]
+                links[k] = float_bits(r9[4 + k])
+            hits = int(r9[8])
+        else:
+            o16 = vec16()  # box_quad's broadcasts (the C++ visit splats its own)
+            inv16 = vec16()
+            for k in range(16):
+                o16[k] = o[k // 4]
+                inv16[k] = inv[k // 4]
+            near, far = box_quad(g, first, o16, inv16, s_min, best)
+            for k in range(4):
+                if near[k] <= far[k]:
+                    e[k] = near[k]
+                    hits += 1
+                else:
+                    e[k] = scalar(INF)
+            e, links = sort4(e, links)
+        return e, links, hits
+
     GeometryRef, expand = Geometry.Ref, Geometry.expand
 
     @wp.func(inline=inline)
@@ -195,25 +227,47 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
         """
         g = expand(r)  # the pointers to the struct (see kernels/struct_ref.py)
         inv = null_inv(n, finite)  # dt = -1 on the past lightcone, 0 with infinite light speed
-        # The scene's box first: rays that miss it (sky) return before any other set-up.
-        ra = wp.cw_mul(g.root_lo - o, inv)
-        rb = wp.cw_mul(g.root_hi - o, inv)
-        r_near = s_min
-        r_far = s_max
-        for k in range(4):
-            r_near = fmax(r_near, fmin(ra[k], rb[k]))
-            r_far = fmin(r_far, fmax(ra[k], rb[k]) * scalar(SLAB_GROW))
-        if r_near > r_far:
-            return int(-1), s_max, vec4(scalar(0.0)), int(0), int(0)
-        if wp.static(not use_native):  # box_quad's broadcasts (the C++ visit splats its own)
-            o16 = vec16()
-            inv16 = vec16()
-            for k in range(16):
-                o16[k] = o[k // 4]
-                inv16[k] = inv[k // 4]
-        ray = prepare(g, o, n, finite, inv)
         best = s_max
         best_prim = int(-1)
+        visits = int(0)
+        overflow = int(0)
+        # The traversal carries packed links (first << LINK_SHIFT | count), not node
+        # indices: children's links are loaded beside their boxes, so a visit needs
+        # no dependent load before its children's boxes.
+        cur = g.root_link
+        e0 = vec4()
+        links0 = wp.vec4i()
+        hits0 = int(0)
+        if cur != 0:
+            # The root's one child, whose box is the root's: rays that miss it (sky) return
+            # before any other set-up.
+            ra = wp.cw_mul(g.root_lo - o, inv)
+            rb = wp.cw_mul(g.root_hi - o, inv)
+            r_near = s_min
+            r_far = s_max
+            for k in range(4):
+                r_near = fmax(r_near, fmin(ra[k], rb[k]))
+                r_far = fmin(r_far, fmax(ra[k], rb[k]) * scalar(SLAB_GROW))
+            if r_near > r_far:
+                return int(-1), s_max, vec4(scalar(0.0)), int(0), int(0)
+        else:
+            # The root node's visit first: rays that miss its children (sky) return before
+            # any other set-up; the nearest child hit is the start, the others are pushed.
+            visits = 1
+            e0, links0, hits0 = visit(g, 0, o, inv, s_min, best)
+            if hits0 == 0:
+                return int(-1), s_max, vec4(scalar(0.0)), visits, int(0)
+            cur = links0[0]
+        st_node = stack_i()
+        st_s = stack_s()
+        sp = int(0)
+        for k in range(3):
+            j = 3 - k
+            if j < hits0:
+                st_node[sp] = links0[j]
+                st_s[sp] = e0[j]
+                sp += 1
+        ray = prepare(g, o, n, finite, inv)
         # The hit's barycentrics as four scalars, not a vec4: Warp merges a variable assigned
         # under a branch with wp.where, which for a vector copies it through memory, and the
         # 8-byte loads of a vector just stored as 4-byte pieces wait for the stores (a failed
@@ -222,15 +276,6 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
         lam1 = scalar(0.0)
         lam2 = scalar(0.0)
         lam3 = scalar(0.0)
-        visits = int(0)
-        overflow = int(0)
-        st_node = stack_i()
-        st_s = stack_s()
-        sp = int(0)
-        # The traversal carries packed links (first << LINK_SHIFT | count), not node
-        # indices: children's links are loaded beside their boxes, so a visit needs
-        # no dependent load before its children's boxes.
-        cur = g.root_link  # wide node 0, the root (or its one child: the root box test was its)
         while cur >= 0:
             visits += 1
             first = cur >> LINK_SHIFT
@@ -246,26 +291,9 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
                 if any_hit != 0 and best_prim >= 0:
                     break
             else:
-                # Children missed get entry +inf; sort the four by entry (a 5-exchange
-                # network), go to the nearest hit, push the other hits farthest first.
-                e = vec4()
-                links = g.node_link[first]
-                hits = int(0)
-                if wp.static(use_native):
-                    r9 = native_visit(g.node_lo[first], g.node_hi[first], o, inv, s_min, best, links)
-                    for k in range(4):
-                        e[k] = r9[k]
-                        links[k] = float_bits(r9[4 + k])
-                    hits = int(r9[8])
-                else:
-                    near, far = box_quad(g, first, o16, inv16, s_min, best)
-                    for k in range(4):
-                        if near[k] <= far[k]:
-                            e[k] = near[k]
-                            hits += 1
-                        else:
-                            e[k] = scalar(INF)
-                    e, links = sort4(e, links)
+                # Children missed get entry +inf; sorted by entry, go to the nearest hit,
+                # push the other hits farthest first.
+                e, links, hits = visit(g, first, o, inv, s_min, best)
                 if hits > 0:
                     next_link = links[0]
                     if sp + hits - 1 <= STACK_SIZE:
@@ -277,7 +305,7 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
                                 sp += 1
                     else:
                         overflow = 1
-            # Pop until a node whose entry is still nearer than the best hit.
+        # Pop until a node whose entry is still nearer than the best hit.
             while next_link < 0 and sp > 0:
                 sp -= 1
                 if st_s[sp] <= best:
