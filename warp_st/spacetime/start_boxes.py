@@ -31,7 +31,8 @@ def start_boxes(rest_lo: np.ndarray, rest_hi: np.ndarray, frame_of: np.ndarray, 
     the rest boxes (``rest_lo``, ``rest_hi``, in its frame's coordinates) of its cluster
     within its frame (``frame_of``); the other bodies keep their rest boxes."""
     start_lo, start_hi = rest_lo.copy(), rest_hi.copy()
-    for f in np.unique(frame_of[traced]):
+    frames, counts = np.unique(frame_of[traced], return_counts=True)
+    for f in frames[counts > 1]:  # a body alone in its frame keeps its own box
         members = np.flatnonzero((frame_of == f) & traced)
         for cluster in _clusters(rest_lo[members], rest_hi[members]):
             start_lo[members[cluster]] = rest_lo[members[cluster]].min(axis=0)
