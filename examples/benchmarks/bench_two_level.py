@@ -2,8 +2,10 @@
 """Issue 17's ratio table: warm and first renders against Warp's wp.Mesh on the same rays.
 
 A benchmark, not a test: it asserts nothing. Every ratio is measured in one run, the two
-sides timed back to back in each repetition (medians of ``--runs``), so the machine's
-drift between repetitions cancels; the CPU model heads the table.
+sides timed back to back in each repetition; a row's ratio is the median of the
+repetitions' ratios (``paired``, ``--runs`` of them), so the machine's drift between
+repetitions cancels, and its times are the medians of each side; the CPU model heads the
+table.
 
 - static:  warm ``warp_st.render`` (the public call, everything included: options,
   database look-up, launch, film read-back) of 16 static spheres (128 longitudes,
@@ -244,6 +246,13 @@ def med(values) -> float:
     return statistics.median(values)
 
 
+def paired(num, den) -> float:
+    """The median over repetitions of num[i] / den[i]: each ratio of two timings taken back
+    to back, so the machine's drift between repetitions cancels (a ratio of the two
+    medians could pair a fast repetition of one side with a slow one of the other)."""
+    return statistics.median(a / b for a, b in zip(num, den))
+
+
 def table_static(args, log):
     scene = spheres_scene(128, moving=False)
     tris = sum(b.triangle_count for b in scene.bodies)
@@ -256,7 +265,7 @@ def table_static(args, log):
             ours.append(timed_render(scene, args, threads)[0])
             theirs.append(mesh.query(threads))
         rows.append((f"warm render, {tris:,} static triangles, {args.width}x{args.height}, {threads} thr",
-                     med(ours), med(theirs), med(theirs) / med(ours), "wp.Mesh / ours"))
+                     med(ours), med(theirs), paired(theirs, ours), "wp.Mesh / ours"))
         log(f"  static {threads} thr: ours {1e3 * med(ours):.1f} ms, wp.Mesh {1e3 * med(theirs):.1f} ms")
     return rows
 
@@ -271,7 +280,7 @@ def moving_against_resting(label, rest, moving, args, log):
         for _ in range(args.runs):
             b.append(timed_render(moving, args, threads)[0])
             a.append(timed_render(rest, args, threads)[0])
-        rows.append((f"warm render, {label} against at rest, {threads} thr", med(b), med(a), med(b) / med(a),
+        rows.append((f"warm render, {label} against at rest, {threads} thr", med(b), med(a), paired(b, a),
                      "moving / resting"))
         log(f"  {label}, {threads} thr: moving {1e3 * med(b):.1f} ms, resting {1e3 * med(a):.1f} ms")
     return rows
@@ -310,7 +319,7 @@ def closest_hits(r, geo, mesh, origin_event, label, args, log, finite=1):
             if times:
                 agree = (hit == (faces >= 0)).mean()
                 rows.append((f"closest hit only, {label.format(who=who)}, {threads} thr", med(a), med(times),
-                             med(times) / med(a),
+                             paired(times, a),
                              f"{who} / ours" + ("" if agree == 1.0 else f" (hit masks agree on {100 * agree:.2f} %)")))
         log(f"  {label.format(who='wp.Mesh')} {threads} thr: ours {1e3 * med(a):.1f} ms, wp.Mesh {1e3 * med(b):.1f} ms")
     return rows
@@ -419,7 +428,7 @@ def first_renders(scene, label, args, log):
         for who, times in (("wp.Mesh", theirs), ("Embree", emb)):
             if times:
                 rows.append((f"first render, {tris:,} static triangles{label}, {threads} thr", med(ours), med(times),
-                             med(ours) / med(times), f"ours / ({who} build + query)"))
+                             paired(ours, times), f"ours / ({who} build + query)"))
                 log(f"  first{label} {threads} thr: ours {1e3 * med(ours):.1f} ms, {who} build+query "
                     f"{1e3 * med(times):.1f} ms")
     return rows, mesh, embree
@@ -454,12 +463,12 @@ def table_first(args, log):
     for who in ("wp.Mesh", "Embree"):
         if builds[who]:
             rows.append((f"build per million triangles ({tris:,} static triangles)", per_m * med(builds["ours"]),
-                         per_m * med(builds[who]), med(builds["ours"]) / med(builds[who]), f"ours / {who}"))
+                         per_m * med(builds[who]), paired(builds["ours"], builds[who]), f"ours / {who}"))
             # Builder against builder: our bottom levels per million triangles they hold
             # (the distinct shapes': instances are built once) against the same tracer's.
             rows.append((f"bottom levels alone per million triangles built ({distinct:,} in distinct shapes)",
                          1e6 / distinct * med(builds["trees"]), per_m * med(builds[who]),
-                         med(builds["trees"]) / distinct / (med(builds[who]) / tris), f"ours / {who}"))
+                         paired(builds["trees"], builds[who]) * tris / distinct, f"ours / {who}"))
     log("  builds per M triangles: " + ", ".join(f"{k} {1e3 * (1e6 / distinct if k == 'trees' else per_m) * med(v):.0f}"
                                                  " ms" for k, v in builds.items() if v))
     return rows
@@ -495,7 +504,7 @@ def table_sequence(args, log):
             seq.append((time.perf_counter() - t0) / 2)
             one.append(timed_render(scene, args, threads)[0])
         rows.append((f"frames 0 and 10,000 of the moving spheres, per frame, {threads} thr", med(seq), med(one),
-                     med(seq) / med(one), "per frame / one warm frame"))
+                     paired(seq, one), "per frame / one warm frame"))
         log(f"  sequence {threads} thr: {1e3 * med(seq):.1f} ms per frame, warm frame {1e3 * med(one):.1f} ms")
     return rows
 
@@ -529,7 +538,7 @@ def main(argv=None) -> int:
         log(f"[{name}]")
         rows += {"static": table_static, "trace": table_trace, "shipped": table_shipped, "parade": table_parade, "motion": table_motion, "first": table_first,
                  "distinct": table_distinct, "cubes": table_cubes, "sequence": table_sequence}[name](args, log)
-    print(f"CPU: {cpu_model()}; medians of {args.runs} runs, both sides timed back to back in each run")
+    print(f"CPU: {cpu_model()}; times: medians of {args.runs} runs; ratios: medians of the runs' ratios, both sides timed back to back in each run")
     print()
     print("| measure | A ms | B ms | ratio | ratio is |")
     print("|---|---|---|---|---|")

@@ -39,3 +39,15 @@ def test_every_shipped_stage_hits_as_wp_mesh_does(capsys):
     stages = {p.stem for p in (path.parents[2] / "usd_scenes").rglob("*.usda")}
     assert {row.split(",")[1].split(" static copy")[0].strip() for row in rows} == stages
     assert not [row for row in rows if "wp.Mesh / ours (hit masks agree" in row]
+
+
+def test_a_rows_ratio_is_the_median_of_its_repetitions_ratios():
+    """``paired``: each repetition's two timings, taken back to back, make one ratio; the
+    row's is their median (a slow spell that hits both sides of one repetition cancels),
+    not the ratio of the two sides' medians (here 2 / 3)."""
+    path = Path(__file__).resolve().parents[2] / "examples" / "benchmarks" / "bench_two_level.py"
+    spec = importlib.util.spec_from_file_location("bench_two_level_paired", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert module.paired([1.0, 2.0, 9.0], [1.0, 4.0, 3.0]) == 1.0
+    assert module.paired([3.0, 30.0], [1.0, 10.0]) == 3.0
