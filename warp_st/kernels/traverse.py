@@ -261,6 +261,8 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
         st_node = stack_i()
         st_s = stack_s()
         sp = int(0)
+        # The root's other hits pushed as the loop pushes a visit's (one loop taking the
+        # root's visit as its first measured 3-7 % slower).
         for k in range(3):
             j = 3 - k
             if j < hits0:
@@ -305,7 +307,7 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
                                 sp += 1
                     else:
                         overflow = 1
-        # Pop until a node whose entry is still nearer than the best hit.
+            # Pop until a node whose entry is still nearer than the best hit.
             while next_link < 0 and sp > 0:
                 sp -= 1
                 if st_s[sp] <= best:
