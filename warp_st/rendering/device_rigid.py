@@ -59,8 +59,8 @@ class RigidArrays(ShadingTables):
         self.body_start_hi = wp.array(shapes.body_start_hi, dtype=wp.vec3d, device=_DEVICE)
         velocity = np.array([b.velocity for b in shapes.bodies], dtype=np.float64).reshape(-1, 3)
         self.body_velocity64 = wp.array(velocity, dtype=wp.vec3d, device=_DEVICE)
-        # kernels/trace_rigid's bits: START_OWN (1) where the frame holds the body's shape
-        # alone (its start box is its own box); AT_REST (2) where v = 0, A^-1 = I
+        # kernels/trace_rigid's bits: START_OWN (1) where the body's start box is its own
+        # (it touches no other body of its frame: spacetime/start_boxes.py); AT_REST (2) where v = 0, A^-1 = I
         # and the bottom level is in the body's coordinates (not body_mapped).
         start_own = np.all((shapes.body_start_lo == shapes.body_rest_lo) & (shapes.body_start_hi == shapes.body_rest_hi),
                            axis=1)
