@@ -65,9 +65,11 @@ def test_start_boxes_join_the_bodies_that_may_touch(seed):
         assert np.all(apart | np.eye(len(boxes), dtype=bool))
 
 
-def test_scattered_bodies_start_at_their_own_boxes():
+def test_a_chain_of_touching_boxes_shares_one_start_box_and_a_box_apart_keeps_its_own():
+    # Unit boxes along x: body 0 on [0, 1] touches body 3 on [1, 2], which touches body 1
+    # on [2, 2.5]; body 2 on [4, 5] is apart.
     lo = np.array([[0.0, 0, 0], [2, 0, 0], [4, 0, 0], [1, 0, 0]])
-    hi = lo + 1.0  # 0 and 3 touch at x = 1, 3 and 1 at x = 2: one chain; 2 touches 1 at x = 3? no: 2 starts at 4
+    hi = lo + 1.0
     hi[1, 0] = 2.5
     s_lo, s_hi = start_boxes(lo, hi, np.zeros(4, int), np.ones(4, bool))
     assert np.array_equal(s_lo[[0, 1, 3]], np.tile([0.0, 0, 0], (3, 1)))

@@ -81,7 +81,7 @@ def make_trace_rigid(scalar, tets: bool = False):
     vec24ub = wp.types.vector(24, wp.uint8)
     vec6f = wp.types.vector(6, wp.float32)
     solid_interval = make_quadrics()
-    fmin, fmax, _safe_inv, SLAB_GROW = make_box_ops(scalar)
+    fmin, fmax, _, SLAB_GROW = make_box_ops(scalar)
     fmin64, fmax64 = make_box_ops(wp.float64)[:2]  # single compare-selects: no slab value is NaN
     # A hit on the triangle a secondary ray leaves (skip_tri) is stepped over by this
     # fraction of its lookback (and as much absolutely): far past the float32 rounding of
@@ -222,8 +222,8 @@ def make_trace_rigid(scalar, tets: bool = False):
                    s1: wp.float64):
         """[s0, s1] cut to where r(s) = p + s d lies in the box [lo, hi] (float64 slabs,
         ``inv`` = reciprocal(d); empty: s0 >= s1). No slab value is NaN (an axis with
-        d = 0 is told apart, and 1 / d of a float32 direction is finite), so the minima
-        and maxima are single compare-selects."""
+        d = 0 is told apart, and 1 / d is finite on the others), so the minima and maxima
+        are single compare-selects."""
         for k in range(3):
             if d[k] != wp.float64(0.0):
                 a = (lo[k] - p[k]) * inv[k]

@@ -146,7 +146,7 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
     stack_i = wp.types.vector(STACK_SIZE, wp.int32)
     stack_s = wp.types.vector(STACK_SIZE, scalar)
     INF = float("inf")
-    fmin, fmax, _safe_inv, SLAB_GROW = make_box_ops(scalar)
+    fmin, fmax, _, SLAB_GROW = make_box_ops(scalar)
     null_inv = make_null_inv(scalar)
 
     @wp.func
