@@ -148,6 +148,7 @@ class MeshQueries:
         self.t = wp.zeros(n, dtype=wp.float32, device="cpu")
         self.tiles = [(o, min(o + TILE_PIXELS, n)) for o in range(0, n, TILE_PIXELS)]
         self.kernel = _mesh_kernel(wp)
+        self.kept = {}  # each thread's recorded launches, kept between calls as the renderer's are
         self.build()
         self.query(2)  # compile / load the kernel, first touch
 
@@ -163,10 +164,11 @@ class MeshQueries:
 
     def replayed(self, kernel, inputs):
         """``launch(tile)`` of ``kernel`` (``inputs``, then the tile's first ray), each thread
-        replaying its recorded launch as the renderer's tiles do (``launches.tile_launches``)."""
+        replaying its recorded launch, kept between calls (``kept``), as the renderer's tiles
+        do (``launches.tile_launches``)."""
         from warp_st.rendering.launches import tile_launches
 
-        replay = tile_launches(self.wp, kernel, inputs, per_thread=1, end=False)
+        replay = tile_launches(self.wp, kernel, inputs, per_thread=1, end=False, kept=self.kept)
         return lambda tile: replay((tile[0], tile[1] - tile[0]))
 
     def run(self, launch, threads: int) -> float:

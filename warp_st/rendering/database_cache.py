@@ -92,7 +92,8 @@ class Database:
     ``nbytes``: its memory estimate without a frame's pixels (``rendering.budget``);
     ``stats``: how long its build took (``renderer._BuildStats``); ``static`` its uploaded
     arrays per precision, ``geometry`` its recentred geometries per (precision, camera
-    event); ``frame_structs``, ``films`` and ``image_blocks`` what render calls reuse (``frame_inputs``)."""
+    event); ``frame_structs``, ``films``, ``image_blocks`` and ``launches`` what render calls reuse
+    (``frame_inputs``, ``launches``)."""
 
     tessellation: tuple
     primitive: str
@@ -113,6 +114,7 @@ class Database:
     lenses: OrderedDict = field(default_factory=OrderedDict)  # lenses seen once, no table yet (frame_inputs.py)
     films: dict = field(default_factory=dict)  # its idle film (rendering/frame_inputs.py)
     image_blocks: list = field(default_factory=list)  # the memory of its Images (rendering/frame_inputs.py)
+    launches: dict = field(default_factory=dict)  # each thread's recorded pixel launch (rendering/launches.py)
 
     def geometry_for(self, precision: str, origin: tuple, make):
         """The geometry recentred on ``origin`` (made by ``make()`` when missing)."""

@@ -186,3 +186,4 @@ def keep_only(databases, db) -> None:
             if other is not db:
                 other.films.clear()
                 other.image_blocks.clear()  # blocks of live Images stay with their Images
+                other.launches.clear()  # they hold their last render's film

@@ -523,7 +523,7 @@ class Renderer:
 
         kernel = k.pixels(bool(self.scene.lights))  # without lights: the kernel that casts no shadow rays
 
-        launch = tile_launches(wp, kernel, [geo, shd, kcam, film])
+        launch = tile_launches(wp, kernel, [geo, shd, kcam, film], kept=self.database.launches)
 
         t_kernel = time.perf_counter()
         each_on_threads(launch, tiles, n_threads)
