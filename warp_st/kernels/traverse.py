@@ -72,9 +72,20 @@ def make_box_ops(scalar):
     return fmin, fmax, safe_inv, SLAB_GROW
 
 
-def make_null_inv(scalar):
+@wp.func_native(snippet("null_inv.inc", TINY=1.0e-30, BIG=1.0e30))
+def native_null_inv(n: wp.vec3, finite: int) -> wp.vec4:
+    """The float32 ``null_inv`` in C++ (``null_inv.inc``): the three reciprocals as one
+    vector division, the same bits as ``safe_inv``'s."""
+
+
+def make_null_inv(scalar, native: bool | None = None):
     """``null_inv(n, finite)``: 1 / d per axis of the null ray's d = (-1, n), or (0, n)
-    with infinite light speed (whose t slab then takes 1e30): what the slab tests multiply by."""
+    with infinite light speed (whose t slab then takes 1e30): what the slab tests multiply by.
+    ``native``: in float32 (None: the default) ``native_null_inv``, one vector division
+    instead of three (every ray's first work); False, or float64: the Warp-language twin,
+    which the tests hold equal to it bit for bit."""
+    if scalar == wp.float32 and native is not False:
+        return native_null_inv
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
     safe_inv = make_box_ops(scalar)[2]
@@ -133,9 +144,9 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
     ``inline``: Warp's inlining of ``trace`` (None: the compiler's choice; True: into every
     call site, where the caller's constant arguments then fold its branches away).
 
-    ``native``: the float32 node visit in C++ (``wide_visit.inc``; None: for float32,
-    the default; False: the Warp-language ``box_quad`` and ``sort4``, its twin in the
-    tests; float64 always takes those).
+    ``native``: the float32 node visit and ``null_inv`` in C++ (``wide_visit.inc``,
+    ``null_inv.inc``; None: for float32, the default; False: the Warp-language ``box_quad``,
+    ``sort4`` and ``null_inv``, their twins in the tests; float64 always takes those).
 
     Returns (primitive index or -1, s, barycentrics, nodes visited, stack overflowed).
     """
@@ -147,7 +158,7 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
     stack_s = wp.types.vector(STACK_SIZE, scalar)
     INF = float("inf")
     fmin, fmax, _, SLAB_GROW = make_box_ops(scalar)
-    null_inv = make_null_inv(scalar)
+    null_inv = make_null_inv(scalar, native)
 
     @wp.func
     def box_quad(g: Geometry, node: int, o16: vec16, inv16: vec16, s_min: scalar, s_max: scalar):
