@@ -19,7 +19,7 @@ from warp_st.kernels.spectrum import make_spectrum
 from warp_st.kernels.texture import make_textures
 from warp_st.kernels.trace import make_trace
 from warp_st.kernels.trace_rigid import make_trace_rigid
-from warp_st.kernels.traverse import make_traverse
+from warp_st.kernels.traverse import STACK_SIZE, make_traverse
 
 __all__ = ["get_kernels", "Kernels", "PIXELS_PER_THREAD"]
 
@@ -31,16 +31,18 @@ PIXELS_PER_THREAD = 64
 
 class Kernels:
     """The compiled device types and kernels for one scalar type and primitive kind
-    (``tets``: the rigid path with deforming bodies' tetrahedra, ``trace_rigid``)."""
+    (``tets``: the rigid path with deforming bodies' tetrahedra, ``trace_rigid``; ``stack``:
+    the rigid top level's traversal stack, ``traverse.stack_for``)."""
 
-    def __init__(self, scalar, primitive: str = "prism", tets: bool = False):
+    def __init__(self, scalar, primitive: str = "prism", tets: bool = False, stack: int = STACK_SIZE):
         self.scalar = scalar
         self.primitive = primitive
+        self.stack = stack
         self.vec3 = wp.types.vector(3, scalar)
         self.vec4 = wp.types.vector(4, scalar)
         self.vec16 = wp.types.vector(16, scalar)  # box corners of a wide node's four children
         if primitive == "rigid":
-            Geometry, trace, prepare, leaf = make_trace_rigid(scalar, tets)
+            Geometry, trace, prepare, leaf = make_trace_rigid(scalar, tets, stack)
         else:
             Geometry, trace, prepare, leaf = make_trace(scalar, primitive)
         self.Geometry = Geometry
@@ -83,8 +85,8 @@ class Kernels:
             scalar, vec3, vec4, Geometry, prepare, leaf = self._probe_parts
             # The probe's traversal inlined into its kernel, as wp.mesh_query_ray is into a
             # caller's: its constant arguments (no skips, closest hit) fold those branches.
-            self._probe = make_probe(scalar, vec3, vec4, Geometry, make_traverse(scalar, Geometry, prepare, leaf,
-                                                                                 inline=True), prepare, leaf)
+            trace = make_traverse(scalar, Geometry, prepare, leaf, inline=True, stack_size=self.stack)
+            self._probe = make_probe(scalar, vec3, vec4, Geometry, trace, prepare, leaf)
         return self._probe
 
 
@@ -548,11 +550,13 @@ def _make_render(scalar, k, trace, Geometry):
 
 
 @functools.lru_cache(maxsize=None)
-def get_kernels(precision: str, primitive: str = "prism", tets: bool = False) -> Kernels:
+def get_kernels(precision: str, primitive: str = "prism", tets: bool = False, stack: int = STACK_SIZE) -> Kernels:
     """Kernels for ``"float32"``/``"float64"`` and a primitive of PRIMITIVES, built
     once per process (``"rigid"`` in float64 serves scenes of exact quadrics only;
-    ``tets``: rigid with deforming bodies' tetrahedra as a second leaf kind)."""
+    ``tets``: rigid with deforming bodies' tetrahedra as a second leaf kind; ``stack``: the
+    rigid top level's traversal stack, ``traverse.stack_for`` its tree)."""
     scalar = {"float32": wp.float32, "float64": wp.float64}[precision]
     if primitive not in PRIMITIVES:
         raise ValueError(f"primitive must be one of {', '.join(PRIMITIVES)}, got {primitive!r}")
-    return Kernels(scalar, primitive, tets and primitive == "rigid")
+    rigid = primitive == "rigid"
+    return Kernels(scalar, primitive, tets and rigid, stack if rigid else STACK_SIZE)

@@ -63,17 +63,19 @@ from warp_st.kernels.layout import ANALYTIC
 from warp_st.kernels.quadrics import make_quadrics
 from warp_st.kernels.struct_ref import referenced
 from warp_st.kernels.trace import make_trace
-from warp_st.kernels.traverse import make_box_ops, make_traverse
+from warp_st.kernels.traverse import STACK_SIZE, make_box_ops, make_traverse
 
 __all__ = ["make_trace_rigid"]
 
 
-def make_trace_rigid(scalar, tets: bool = False):
+def make_trace_rigid(scalar, tets: bool = False, stack_size: int = STACK_SIZE):
     """The rigid path's Geometry and traversal in ``scalar``. The bottom levels'
     bottom-level queries are float32 whatever ``scalar`` is (``at``): in float64 the path
     is exact only for analytic shapes, which is why the renderer takes it in float64 only
     for scenes of exact quadrics (``rendering.renderer``). ``tets``: the Geometry also
-    holds deforming bodies' tetrahedra (``tets``, ``tet_first``; see the module docstring)."""
+    holds deforming bodies' tetrahedra (``tets``, ``tet_first``; see the module docstring).
+    ``stack_size``: the top level's traversal stack (``traverse.stack_for`` its tree; the
+    tetrahedra's own traversal takes the full one)."""
     vec2 = wp.types.vector(2, scalar)
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
@@ -410,6 +412,6 @@ def make_trace_rigid(scalar, tets: bool = False):
                         return best, best_prim, vec4(lam0, lam1, lam2, lam3)
         return best, best_prim, vec4(lam0, lam1, lam2, lam3)
 
-    trace = make_traverse(scalar, Geometry, prepare, leaf)
+    trace = make_traverse(scalar, Geometry, prepare, leaf, stack_size=stack_size)
     Geometry.tet_geometry = TetGeometry  # the nested struct's type (None without tets)
     return Geometry, trace, prepare, leaf

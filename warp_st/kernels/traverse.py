@@ -34,12 +34,23 @@ import warp as wp
 from warp_st.kernels.layout import LINK_MASK, LINK_SHIFT, MAX_WIDE_DEPTH
 from warp_st.kernels.native import float_bits, snippet
 
-__all__ = ["make_traverse", "make_box_ops", "make_null_inv", "make_sort4", "STACK_SIZE"]
+__all__ = ["make_traverse", "make_box_ops", "make_null_inv", "make_sort4", "STACK_SIZE", "SHORT_STACK", "stack_for"]
 
 #: Traversal stack entries: a visit pushes at most three children, so three per level
 #: of the wide tree (bvh_wide.MAX_WIDE_DEPTH) bound it. Zero-initialised per ray, so
 #: no larger than needed.
 STACK_SIZE = 3 * MAX_WIDE_DEPTH
+#: The stack of a traversal whose tree is at most 8 wide levels deep (``stack_for``): Warp
+#: zeroes a function's vectors where it declares them, and the full stack's 768 bytes (in
+#: float32) cost 4-7 % of a ray that enters the scene on the small stages.
+SHORT_STACK = 24
+
+
+def stack_for(levels: int) -> int:
+    """The stack a traversal of a tree of ``levels`` binary levels needs: SHORT_STACK when
+    it holds three entries per wide level (the wide nodes are the binary inner nodes at
+    even depths, at most (levels + 1) // 2 on a path), else STACK_SIZE."""
+    return SHORT_STACK if 3 * ((int(levels) + 1) // 2) <= SHORT_STACK else STACK_SIZE
 
 
 def make_box_ops(scalar):
@@ -138,7 +149,8 @@ def native_visit(lo: wp.types.vector(16, wp.float32), hi: wp.types.vector(16, wp
     the number hit in 8."""
 
 
-def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, native: bool | None = None):
+def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, native: bool | None = None,
+                  stack_size: int = STACK_SIZE):
     """``trace(g, o, n, finite, s_min, s_max, skip_tri, skip_body, skip_dist, any_hit)``
     over ``Geometry``'s 4-wide BVH with the leaf test ``leaf`` (see the module docstring).
     ``inline``: Warp's inlining of ``trace`` (None: the compiler's choice; True: into every
@@ -148,14 +160,17 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
     ``null_inv.inc``; None: for float32, the default; False: the Warp-language ``box_quad``,
     ``sort4`` and ``null_inv``, their twins in the tests; float64 always takes those).
 
+    ``stack_size``: the traversal stack's entries (``stack_for`` the tree; STACK_SIZE holds
+    any tree the builder makes).
+
     Returns (primitive index or -1, s, barycentrics, nodes visited, stack overflowed).
     """
     use_native = scalar == wp.float32 and native is not False
     vec3 = wp.types.vector(3, scalar)
     vec4 = wp.types.vector(4, scalar)
     vec16 = wp.types.vector(16, scalar)
-    stack_i = wp.types.vector(STACK_SIZE, wp.int32)
-    stack_s = wp.types.vector(STACK_SIZE, scalar)
+    stack_i = wp.types.vector(stack_size, wp.int32)
+    stack_s = wp.types.vector(stack_size, scalar)
     INF = float("inf")
     fmin, fmax, _, SLAB_GROW = make_box_ops(scalar)
     null_inv = make_null_inv(scalar, native)
@@ -309,7 +324,7 @@ def make_traverse(scalar, Geometry, prepare, leaf, inline: bool | None = None, n
                 e, links, hits = visit(g, first, o, inv, s_min, best)
                 if hits > 0:
                     next_link = links[0]
-                    if sp + hits - 1 <= STACK_SIZE:
+                    if sp + hits - 1 <= stack_size:
                         for k in range(3):
                             j = 3 - k
                             if j < hits:
