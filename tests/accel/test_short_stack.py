@@ -9,6 +9,7 @@ bit (a traversal is the same whatever its stack's length, until the stack would 
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 from pathlib import Path
 
 import numpy as np
@@ -57,10 +58,11 @@ def test_short_stack_images_are_the_full_stacks(stage, monkeypatch):
 
 
 def test_a_deep_top_level_takes_the_full_stack():
-    import sys
-    sys.path.insert(0, str(ROOT / "examples" / "benchmarks"))
-    from bench_two_level import cubes_scene
-
-    r = Renderer(cubes_scene(1000, moving=True), frames=[0.0], width=32, height=32)
+    """The benchmark's 1,000 moving cubes: a top level of 27 binary levels."""
+    spec = importlib.util.spec_from_file_location("bench_two_level_cubes",
+                                                  ROOT / "examples" / "benchmarks" / "bench_two_level.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    r = Renderer(bench.cubes_scene(1000, moving=True), frames=[0.0], width=32, height=32)
     assert stack_for(r.database.bvh.depth) == STACK_SIZE and r.kernels.stack == STACK_SIZE
     r.render(0.0)  # no overflow (the renderer raises on one)

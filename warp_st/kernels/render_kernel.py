@@ -554,7 +554,8 @@ def get_kernels(precision: str, primitive: str = "prism", tets: bool = False, st
     """Kernels for ``"float32"``/``"float64"`` and a primitive of PRIMITIVES, built
     once per process (``"rigid"`` in float64 serves scenes of exact quadrics only;
     ``tets``: rigid with deforming bodies' tetrahedra as a second leaf kind; ``stack``: the
-    rigid top level's traversal stack, ``traverse.stack_for`` its tree)."""
+    rigid top level's traversal stack, ``traverse.stack_for`` its tree; the other paths
+    take the full stack whatever it says)."""
     scalar = {"float32": wp.float32, "float64": wp.float64}[precision]
     if primitive not in PRIMITIVES:
         raise ValueError(f"primitive must be one of {', '.join(PRIMITIVES)}, got {primitive!r}")

@@ -277,7 +277,7 @@ class Renderer:
         """The database for cameras ``cams``: the scene's cached one when it covers them
         (``database_cache``), else built now and cached on the scene."""
         from warp_st.kernels import get_kernels
-        from warp_st.kernels.traverse import STACK_SIZE, stack_for
+        from warp_st.kernels.traverse import stack_for
         from warp_st.rendering.device import StaticArrays
         from warp_st.rendering.device_mixed import rigid_arrays
 
@@ -348,8 +348,7 @@ class Renderer:
             cache.use(db)
         tc = time.perf_counter()
         # The rigid top level's traversal stack fits its tree (the full one zeroes 768 bytes a ray).
-        self.kernels = get_kernels(self.precision.value, self.primitive, db.tets is not None,
-                                   stack_for(db.bvh.depth) if self.primitive == "rigid" else STACK_SIZE)
+        self.kernels = get_kernels(self.precision.value, self.primitive, db.tets is not None, stack_for(db.bvh.depth))
         wp.load_module(self.kernels.pixels(bool(self.scene.lights)).module, device="cpu")
         self.stats.compile_seconds = time.perf_counter() - tc
         t3 = time.perf_counter()
