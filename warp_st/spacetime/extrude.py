@@ -188,17 +188,22 @@ def longest_edges(pts: np.ndarray, tris: np.ndarray) -> np.ndarray:
 
 def _facets(local: np.ndarray, tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit facet normals (e1 x e2 normalised, as ``np.cross`` and ``np.linalg.norm``
-    give them to the bit) and longest edges (``longest_edges``) of ``tris`` over
-    ``local``, from one gather of the corners."""
-    corners = np.take(local, tris, axis=0)
-    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
-    e1, e2, e3 = b - a, c - a, c - b
-    fn = np.empty_like(e1)
-    fn[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
-    fn[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
-    fn[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    fn /= np.maximum(np.sqrt(row_squares(fn)), 1e-300)[:, None]
-    return fn, np.sqrt(np.maximum(np.maximum(row_squares(e1), row_squares(e2)), row_squares(e3)))
+    give them to the bit) and longest edges (``longest_edges``, to the bit) of ``tris``
+    over ``local``. Coordinate by coordinate: each corner coordinate a gather of one
+    column, each difference and product over contiguous arrays (the same operations in
+    the same order as on (T, 3) rows, half the time of one (T, 3, 3) gather and its
+    strided rows; 16k triangles: 0.5-1.8 against 1.0-2.3 ms)."""
+    x, y, z = local[:, 0], local[:, 1], local[:, 2]
+    i, j, k = tris[:, 0], tris[:, 1], tris[:, 2]
+    ax, ay, az, bx, by, bz, cx, cy, cz = x[i], y[i], z[i], x[j], y[j], z[j], x[k], y[k], z[k]
+    e1x, e1y, e1z = bx - ax, by - ay, bz - az
+    e2x, e2y, e2z = cx - ax, cy - ay, cz - az
+    e3x, e3y, e3z = cx - bx, cy - by, cz - bz
+    fx, fy, fz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    norm = np.maximum(np.sqrt(fx * fx + fy * fy + fz * fz), 1e-300)
+    longest = np.maximum(np.maximum(e1x * e1x + e1y * e1y + e1z * e1z, e2x * e2x + e2y * e2y + e2z * e2z),
+                         e3x * e3x + e3y * e3y + e3z * e3z)
+    return np.column_stack([fx / norm, fy / norm, fz / norm]), np.sqrt(longest)
 
 
 def _body_size(body: Body) -> float:
@@ -259,9 +264,16 @@ def bodies_triangles(bodies, materials: list, mat_index: dict, *, shared: bool) 
     coordinates and triangles; the precision their shared shape is held in,
     ``spacetime.rigid``) with the same contraction share the shading tables of the first:
     only ``rest``, ``local`` and the materials are their own."""
+    masks: dict = {}  # id of a surface's triangle array -> (it, surface_keep): instances share theirs
+
+    def kept(surf):
+        if id(surf.triangles) not in masks:
+            masks[id(surf.triangles)] = (surf.triangles, surface_keep(surf))
+        return masks[id(surf.triangles)][1]
+
     for body in bodies:
         for surf in body.surfaces:
-            if surface_keep(surf).any():  # a surface with triangles: _triangle_materials' order
+            if kept(surf).any():  # a surface with triangles: _triangle_materials' order
                 for material in (surf.material, *surf.subset_materials):
                     _material_index(material, materials, mat_index)
     pool = thread_pool(os.cpu_count() or 1)
@@ -279,21 +291,21 @@ def bodies_triangles(bodies, materials: list, mat_index: dict, *, shared: bool) 
     firsts = list(made.values())
     for key, bt in zip(made, pool.map(lambda i: _body_triangles(bodies[i], parts[i][0], materials, mat_index), firsts)):
         made[key] = bt
-    return [None if i not in parts else _own_copy(body, made[parts[i][2]], parts[i][0], parts[i][1], materials,
-                                                    mat_index) for i, body in enumerate(bodies)]
+    return [None if i not in parts else _own_copy(body, made[parts[i][2]], parts[i][0], parts[i][1],
+                                                    [kept(s) for s in body.surfaces], materials, mat_index)
+            for i, body in enumerate(bodies)]
 
 
-def _own_copy(body: Body, shared: BodyTriangles | None, A: np.ndarray, rest: list, materials: list,
+def _own_copy(body: Body, shared: BodyTriangles | None, A: np.ndarray, rest: list, kept: list, materials: list,
               mat_index: dict) -> BodyTriangles | None:
     """``shared`` (the triangles of the first body with ``body``'s instance key) with
     ``body``'s own rest and lab points (``rest``: each surface's points about its pivot)
-    and materials."""
+    and materials (``kept``: each surface's ``surface_keep``)."""
     if shared is None:
         return None
-    kept = [surface_keep(s) for s in body.surfaces]
-    own = np.concatenate([r for r, k in zip(rest, kept) if k.any()])
-    tri_mat = np.concatenate([_triangle_materials(s, k, materials, mat_index) for s, k in zip(body.surfaces, kept)
-                              if k.any()])
+    own = _joined([r for r, k in zip(rest, kept) if k.any()])
+    tri_mat = _joined([_triangle_materials(s, k, materials, mat_index) for s, k in zip(body.surfaces, kept)
+                       if k.any()])
     return dataclasses.replace(shared, rest=own, local=transformed(own, A) + body.origin, tri_material=tri_mat)
 
 
@@ -345,7 +357,7 @@ def _body_triangles(body: Body, A: np.ndarray, materials: list, mat_index: dict)
         pts = np.asarray(surf.points, dtype=np.float64)
         if surf.normals is not None:
             nrm = np.asarray(surf.normals, dtype=np.float64) @ A_inv_t.T
-            nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+            nrm /= np.maximum(np.sqrt(row_squares(nrm)), 1e-300)[:, None]  # np.linalg.norm's bits
         else:
             nrm = np.zeros((len(pts), 3))
         tri_mat = _triangle_materials(surf, keep, materials, mat_index)
@@ -354,20 +366,26 @@ def _body_triangles(body: Body, A: np.ndarray, materials: list, mat_index: dict)
         base += len(pts)
     if not parts:
         return None
-    rest = np.concatenate([p[0] for p in parts]) - body.origin
+    rest = _joined([p[0] for p in parts]) - body.origin
     contracted = transformed(rest, A)  # contracted offsets from the pivot at the reference time
     local = contracted + body.origin
-    tris = np.concatenate([p[2] for p in parts])
+    tris = _joined([p[2] for p in parts])
     # Triangle normals of the contracted shape (lab frame, constant in time).
     fn, size = _facets(contracted, tris)
     counts = [len(p[2]) for p in parts]
     return BodyTriangles(
-        rest=rest, local=local, normals=np.concatenate([p[1] for p in parts]), triangles=tris, tri_normal=fn,
+        rest=rest, local=local, normals=_joined([p[1] for p in parts]), triangles=tris, tri_normal=fn,
         tri_smooth=np.repeat(np.array([1 if p[3] else 0 for p in parts], dtype=np.int32), counts),
         tri_size=size,
-        tri_material=np.concatenate([p[4] for p in parts]).astype(np.int32),
-        tri_st=np.concatenate([p[5] for p in parts]),
+        tri_material=_joined([p[4] for p in parts]).astype(np.int32),
+        tri_st=_joined([p[5] for p in parts]),
     )
+
+
+def _joined(arrays: list) -> np.ndarray:
+    """``np.concatenate(arrays)``; one array itself (``_body_triangles``' parts are its own
+    arrays, made for the call, but the surfaces' points: those it only reads)."""
+    return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
 
 
 def extrude_scene(scene: Scene, windows: list, *, fine: bool = True, fraction: float | None = None,
