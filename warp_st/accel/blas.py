@@ -147,7 +147,7 @@ class BottomLevels:
             links.append(np.where(link >= 0, link.astype(np.int64) + base, -1))
             qs.append(q)
             frames.append(frame)
-            vidx.append(tris[order])
+            vidx.append(np.take(tris, order, axis=0))
             self.orders.append(order)
             roots.append(node_base)
             node_base += len(q)

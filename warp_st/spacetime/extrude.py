@@ -351,7 +351,7 @@ def _body_triangles(body: Body, A: np.ndarray, materials: list, mat_index: dict)
     base = 0
     for surf in body.surfaces:
         keep = surface_keep(surf)
-        tris = np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3)[keep]
+        tris = np.compress(keep, np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3), axis=0)  # [keep], faster
         if len(tris) == 0:
             continue
         pts = np.asarray(surf.points, dtype=np.float64)

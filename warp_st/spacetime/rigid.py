@@ -224,8 +224,11 @@ def renumbered(shapes: RigidShapes, orders: list, vidx, points, reorder) -> Rigi
     perm = triangle_order(shapes, orders)
     names = ("tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material") + (("tri_st",) if len(shapes.tri_st)
                                                                                      else ())
-    # Gathers of every triangle's rows, on the pool (NumPy releases the GIL in them).
-    tables = dict(zip(names, thread_pool(os.cpu_count() or 1).map(lambda name: getattr(shapes, name)[perm], names)))
+    # Gathers of every triangle's rows, on the pool (NumPy releases the GIL in them). np.take,
+    # not a[perm]: NumPy's fancy index of a 2D array's rows took 4.5 ms on 258k (T, 3) rows,
+    # np.take 0.65 (the same rows).
+    tables = dict(zip(names, thread_pool(os.cpu_count() or 1).map(
+        lambda name: np.take(getattr(shapes, name), perm, axis=0), names)))
     return dataclasses.replace(shapes, shape_vidx=vidx, shape_rest=rest,
                                shape_triangles=tuple(vidx[a:b] for a, b in zip(first[:-1], first[1:])),
                                reorder=reorder, **tables)
