@@ -161,3 +161,72 @@ def test_node_boxes_are_their_primitives_bounds(float32_boxes):
         prims = bvh.order[s0:s1]
         assert np.array_equal(bvh.node_lo[j], lo[prims].min(0)), j
         assert np.array_equal(bvh.node_hi[j], hi[prims].max(0)), j
+
+
+def _twin_kernels(monkeypatch):
+    """``accel.bvh``'s kernels made with the Warp-language split of tests/accel/sah_twin.py
+    in place of the C++ one (a module of their own per parameter set)."""
+    import warp_st.accel.bvh as bvh
+    from sah_twin import make_split_twin
+    from warp_st.kernels.bvh_build import make_sah_build
+
+    made = {}
+
+    def kernels(cost_intersect, leaf_size, uniform_t=False, oriented=False):
+        key = (cost_intersect, leaf_size, uniform_t, oriented)
+        if key not in made:
+            args = (leaf_size, SAH_MAX_LEAF, SAH_COST_TRAVERSE, cost_intersect, uniform_t, oriented)
+            made[key] = make_sah_build(*args, split=make_split_twin(*args))
+        return made[key]
+
+    monkeypatch.setattr(bvh, "_sah_kernel", kernels)
+
+
+def _twin_cases():
+    """Boxes that exercise every branch of the split: clustered boxes, boxes of one time
+    extent (3D builds), coincident centres (no bin separates them: the orientation split
+    or the median), one point repeated (no axis spreads), signed zeros (Warp's min keeps
+    the first of equal zeros), extents near the 1e-30 floor, crossing reticles, and
+    builds large enough for the subtree launches."""
+    rng = np.random.default_rng(11)
+    cases = [_clustered(3000, True), _clustered(2000, False), _reticles(3), _clustered(SPLIT_MIN + 904, True)]
+    lo, hi = _clustered(900, False)
+    lo[:450], hi[:450] = lo[0], hi[0]
+    cases.append((lo, hi))
+    cases.append((np.zeros((40, 4)), np.ones((40, 4))))
+    lo, hi = _clustered(600, True)
+    lo[::3, 1:] = -0.0
+    hi[::5, 1:] = 0.0
+    cases.append((lo, hi))
+    c = rng.normal(size=(500, 4)) * 1.0e-31
+    cases.append((c - 1.0e-32, c + 1.0e-32))
+    # Equal sides (cubes: the first longest one is x), rods along x and rods along z, all
+    # about the same centres: three orientation groups, two of them x's.
+    c = rng.normal(size=(600, 4)) * 0.01
+    half = np.tile([1.0e3, 0.5, 0.5, 0.5], (600, 1))
+    half[200:400, 1], half[400:, 3] = 4.0, 4.0
+    cases.append((c - half, c + half))
+    return cases
+
+
+@pytest.mark.parametrize("primitive, leaf_size, uniform_t, oriented", [
+    ("tri", 4, True, True), ("tet", 2, False, False), ("rigid", 1, False, False), ("tri", 4, False, True)])
+def test_the_cpp_split_builds_the_warp_twins_trees(monkeypatch, primitive, leaf_size, uniform_t, oriented):
+    """Law: the builder's C++ split (``kernels/sah_split.inc``) gives the trees its Warp-language
+    twin (tests/accel/sah_twin.py) gives, bit for bit: the same node ranges, children,
+    depth, order and node boxes on every case of ``_twin_cases``, on one thread and two.
+    Exact equality: both compute the same float32 operations in the same order, so any
+    difference is a wrong bin, sweep, tie or partition (a tolerance would hide one)."""
+    import warp_st.accel.bvh as bvh
+
+    cases = _twin_cases()
+    ours = [[build_bvh(lo, hi, primitive, leaf_size=leaf_size, uniform_t=uniform_t, oriented=oriented,
+                       threads=threads) for threads in (1, 2)] for lo, hi in cases]
+    _twin_kernels(monkeypatch)
+    for (lo, hi), builds in zip(cases, ours):
+        twin = build_bvh(lo, hi, primitive, leaf_size=leaf_size, uniform_t=uniform_t, oriented=oriented)
+        assert twin.node_count_total > 1
+        for got in builds:
+            assert got.depth == twin.depth
+            for name in ("node_first", "node_count", "order", "node_lo", "node_hi"):
+                assert np.array_equal(getattr(got, name), getattr(twin, name)), name
