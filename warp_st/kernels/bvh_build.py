@@ -3,7 +3,7 @@
 A thread builds a whole subtree depth first (``sah_tree``, one launch per tree or per
 batch of subtrees, not one per level: docs/design/two-level.md). Each node's split
 (C++ on clang's vector types since 0.10.4, ``sah_split.inc``: the trees of its
-Warp-language twin, tests/accel/sah_twin.py, bit for bit, in three quarters of the time)
+Warp-language twin, tests/accel/sah_twin.py, bit for bit, in two thirds of the time)
 takes the node's contiguous range of the primitive order, bins the
 primitive centres along each of the four axes (t, x, y, z) in one pass (the trees are
 the same as binning axis by axis; the build of a 65k-triangle bottom level is 25 %
