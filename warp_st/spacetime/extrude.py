@@ -289,7 +289,9 @@ def bodies_triangles(bodies, materials: list, mat_index: dict, *, shared: bool) 
             parts[i] = (A, rest, _instance_key(body, A, rest, seen))
             made.setdefault(parts[i][2], i)
     firsts = list(made.values())
-    for key, bt in zip(made, pool.map(lambda i: _body_triangles(bodies[i], parts[i][0], materials, mat_index), firsts)):
+    first_kept = {i: [kept(s) for s in bodies[i].surfaces] for i in firsts}  # made here: the pool only reads them
+    for key, bt in zip(made, pool.map(lambda i: _body_triangles(bodies[i], parts[i][0], materials, mat_index,
+                                                                first_kept[i]), firsts)):
         made[key] = bt
     return [None if i not in parts else _own_copy(body, made[parts[i][2]], parts[i][0], parts[i][1],
                                                     [kept(s) for s in body.surfaces], materials, mat_index)
@@ -345,12 +347,15 @@ def _triangle_materials(surf, keep: np.ndarray, materials: list, mat_index: dict
                  else np.asarray(surf.triangle_material, dtype=np.int64)[keep]]
 
 
-def _body_triangles(body: Body, A: np.ndarray, materials: list, mat_index: dict) -> BodyTriangles | None:
+def _body_triangles(body: Body, A: np.ndarray, materials: list, mat_index: dict,
+                    kept: list | None = None) -> BodyTriangles | None:
+    """``body_triangles`` with contraction ``A``; ``kept``: each surface's ``surface_keep``
+    when the caller has them."""
     A_inv_t = np.linalg.inv(A).T
     parts = []
     base = 0
-    for surf in body.surfaces:
-        keep = surface_keep(surf)
+    for index, surf in enumerate(body.surfaces):
+        keep = surface_keep(surf) if kept is None else kept[index]
         tris = np.compress(keep, np.asarray(surf.triangles, dtype=np.int64).reshape(-1, 3), axis=0)  # [keep], faster
         if len(tris) == 0:
             continue
@@ -383,8 +388,9 @@ def _body_triangles(body: Body, A: np.ndarray, materials: list, mat_index: dict)
 
 
 def _joined(arrays: list) -> np.ndarray:
-    """``np.concatenate(arrays)``; one array itself (``_body_triangles``' parts are its own
-    arrays, made for the call, but the surfaces' points: those it only reads)."""
+    """``np.concatenate(arrays)``, but one array is returned itself, not copied: the
+    callers' parts are arrays made for the call, or a surface's points, which they only
+    read (every result derived from those is a new array)."""
     return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
 
 
