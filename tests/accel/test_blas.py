@@ -21,6 +21,7 @@ degenerate triangles:
 """
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -460,6 +461,78 @@ def test_renumbered_shapes_keep_every_table_with_its_triangle():
     # float64 normals against the float32 ones: within float32 rounding (unit vectors).
     assert np.abs(wide.tri_normal - shapes.tri_normal).max() < 1e-6
     assert np.array_equal(wide.tri_material, shapes.tri_material) and np.array_equal(wide.tri_body, shapes.tri_body)
+
+
+def _mixed_bodies():
+    """Bodies for every kind of run ``spacetime.rigid.assembled`` joins: two instances
+    (one sphere's triangles about their pivots) with materials per face (GeomSubsets),
+    a contracted copy, two overlapping cubes of one motion (a merged class: one run over
+    two bodies), a textured two-surface body, and a body without triangles."""
+    from warp_st.core.scene import Body, Material, RenderSettings, Scene, Surface, Texture
+
+    pts, tris, nrm = tessellate.sphere(1.0, 10)
+    pts = np.round(pts * 1024.0) / 1024.0
+    red, blue = Material(diffuse=(0.8, 0.1, 0.1)), Material(diffuse=(0.1, 0.1, 0.8))
+    faces = (np.arange(len(tris)) % 3 == 0).astype(np.int64)  # 0: the surface's material, 1: its subset's
+    texture = Texture(file="t.png", texels=np.random.default_rng(5).random((4, 4, 4), dtype=np.float32))
+    bodies = []
+    for i, v in enumerate(((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.6, 0.0, 0.0))):
+        c = np.array([4.0 * i, 0.0, -10.0])
+        bodies.append(Body(f"/S{i}", (Surface(f"/S{i}/m", pts + c, tris, red, nrm, subset_materials=(blue,),
+                                              triangle_material=faces),), c, np.array(v), 0.0))
+    cube, ctris = tessellate.cube(2.0)[:2]
+    for i, x in enumerate((0.0, 1.5)):  # touching: one merged class
+        c = np.array([x, 5.0, -10.0])
+        bodies.append(Body(f"/C{i}", (Surface(f"/C{i}/m", cube + c, ctris, blue),), c, np.array([0.0, 0.3, 0.0]), 0.0))
+    st = np.random.default_rng(6).random((len(tris), 3, 2))
+    c = np.array([-5.0, 0.0, -10.0])
+    bodies.append(Body("/T", (Surface("/T/a", pts + c, tris, Material(diffuse_texture=texture), nrm, st=st),
+                              Surface("/T/b", cube + c + 2.0, ctris, red)), c, np.zeros(3), 0.0))
+    bodies.append(Body("/E", (), np.zeros(3), np.zeros(3), 0.0))
+    return Scene(source="<mixed>", bodies=tuple(bodies), lights=(), cameras=(), settings=RenderSettings())
+
+
+def _shipped_and_mixed():
+    import warp_st
+
+    for path in sorted((ROOT / "usd_scenes").rglob("*.usda")):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            yield path.name, warp_st.load(str(path))
+    yield "mixed", _mixed_bodies()
+
+
+def test_the_tables_joined_in_leaf_order_are_the_renumbered_tables():
+    """``shapes_and_bottom_levels`` (the renderer's: trees first, then each run of table
+    rows taken in its shape's leaf order as the tables are joined) gives the arrays of
+    ``bottom_levels(rigid_shapes(...))`` (the tables joined, then renumbered), bit for
+    bit: every shipped stage with tessellated and exact quadrics (merged classes,
+    instances, shapes only quadrics use) and bodies with per-face materials, a texture,
+    a merged class, a contraction and no triangles at all."""
+    import dataclasses
+
+    from warp_st.accel.blas import bottom_levels, shapes_and_bottom_levels
+    from warp_st.spacetime.rigid import RigidShapes, rigid_shapes
+
+    checked = set()
+    for name, scene in _shipped_and_mixed():
+        for exact in (False, True):
+            want, want_bottom = bottom_levels(rigid_shapes(scene, exact_quadrics=exact))
+            got, got_bottom = shapes_and_bottom_levels(tuple(scene.bodies), exact)
+            for f in dataclasses.fields(RigidShapes):
+                a, b = getattr(want, f.name), getattr(got, f.name)
+                if isinstance(a, np.ndarray):
+                    assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes(), (name, f.name)
+                    checked.add(f.name)
+                elif isinstance(a, tuple) and a and isinstance(a[0], np.ndarray):
+                    assert [x.tobytes() for x in a] == [y.tobytes() for y in b], (name, f.name)
+            for k in ("node_q", "node_frame", "node_link", "vidx", "points", "body_root", "body_vert"):
+                assert np.array_equal(getattr(want_bottom, k), getattr(got_bottom, k)), (name, k)
+            assert got.reorder is want.reorder and got_bottom.orders is None
+    assert {"tri_normal", "tri_material", "tri_body", "tri_st", "vertex_normals", "shape_vidx"} <= checked
+    mixed = rigid_shapes(_mixed_bodies())
+    assert mixed.tri_st.shape[0] == mixed.triangle_count and mixed.body_merged.sum() == 2
+    assert len(np.unique(mixed.tri_material)) == 3  # red, blue and the textured material
 
 
 def _quantised_twin(lo16: np.ndarray, hi16: np.ndarray, empty: np.ndarray):

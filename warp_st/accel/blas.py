@@ -43,9 +43,9 @@ from warp_st.accel.bvh_wide import collapse
 from warp_st.core.extent import column_max, column_min
 from warp_st.core.thread_pool import thread_pool
 from warp_st.kernels.layout import LINK_SHIFT, WIDTH
-from warp_st.spacetime.rigid import RigidShapes, renumbered
+from warp_st.spacetime.rigid import RigidShapes, assembled, renumbered, shape_parts
 
-__all__ = ["BottomLevels", "bottom_levels", "leaf_order", "quantised_boxes", "shape_tree"]
+__all__ = ["BottomLevels", "bottom_levels", "shapes_and_bottom_levels", "leaf_order", "quantised_boxes", "shape_tree"]
 
 #: Ranges of up to 4 triangles always become leaves: two levels fewer to build (a third
 #: of the build), queries as fast within the spread of single runs.
@@ -108,8 +108,9 @@ def quantised_boxes(node_lo: np.ndarray, node_hi: np.ndarray, slot_node: np.ndar
 
 
 class BottomLevels:
-    """The bottom levels of ``shapes`` (see the module docstring), NumPy arrays, built
-    over the shapes' triangles in their given order.
+    """The bottom levels of ``shapes`` (a ``RigidShapes`` or ``ShapeParts``: its
+    ``shape_rest``, ``shape_triangles``, ``body_shape`` and ``body_quadric``; see the
+    module docstring), NumPy arrays, built over the shapes' triangles in their given order.
 
     ``orders``: each shape's leaf order (its triangles' indices in the order of
     ``vidx``; None for a shape without a tree) until ``bottom_levels`` has renumbered the
@@ -117,7 +118,7 @@ class BottomLevels:
     the arrays hold; ``count``: the number of shapes.
     """
 
-    def __init__(self, shapes: RigidShapes):
+    def __init__(self, shapes):
         t0 = time.perf_counter()
         body_shape = np.asarray(shapes.body_shape)
         quadric = np.asarray(getattr(shapes, "body_quadric", np.zeros(len(body_shape), np.int32)))
@@ -201,6 +202,17 @@ def leaf_order(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """The leaf order ``BottomLevels`` gives one shape's triangles (the build is
     deterministic: the same points and triangles give the same tree)."""
     return shape_tree(np.asarray(points, np.float32), np.asarray(triangles, np.int32).reshape(-1, 3))[3]
+
+
+def shapes_and_bottom_levels(bodies: tuple, exact_quadrics: bool = False) -> tuple[RigidShapes, BottomLevels]:
+    """``bottom_levels(rigid_shapes(...))`` of ``bodies``, the same arrays, with the
+    shading tables joined once, in the leaf order (``spacetime.rigid.assembled``): the
+    trees are built from the shapes (``shape_parts``) before the tables are joined."""
+    parts = shape_parts(bodies, exact_quadrics)
+    bottom = BottomLevels(parts)
+    shapes = assembled(parts, bottom.orders, bottom.vidx, bottom.points, leaf_order)
+    bottom.orders = None
+    return shapes, bottom
 
 
 def bottom_levels(shapes: RigidShapes) -> tuple[RigidShapes, BottomLevels]:

@@ -19,11 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from warp_st.accel.blas import BottomLevels, bottom_levels
+from warp_st.accel.blas import BottomLevels, bottom_levels, shapes_and_bottom_levels
 from warp_st.accel.bvh import FlatBVH, build_bvh
 from warp_st.spacetime.rigid import MotionSegments
 
-__all__ = ["BottomLevels", "bottom_levels", "build_top_level"]
+__all__ = ["BottomLevels", "bottom_levels", "build_top_level", "shapes_and_bottom_levels"]
 
 
 def build_top_level(segments: MotionSegments) -> FlatBVH:

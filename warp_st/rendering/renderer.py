@@ -405,17 +405,16 @@ class Renderer:
     def _new_rigid_database(self, scene: Scene, windows: list, tessellation: tuple, cache, t0: float):
         """The rigid database over ``windows``: the tessellation's shapes and bottom levels
         (cached on the scene apart, built on first use) under a new top level."""
-        from warp_st.accel.instances import bottom_levels, build_top_level
+        from warp_st.accel.instances import build_top_level, shapes_and_bottom_levels
         from warp_st.rendering.database_mixed import shapes_key, tet_leaves
         from warp_st.spacetime.mixed import has_deforming, rigid_part
-        from warp_st.spacetime.rigid import motion_segments, rigid_shapes
+        from warp_st.spacetime.rigid import motion_segments
 
         mixed = has_deforming(scene)  # deforming bodies: tetrahedra as leaves beside the instances
         rigid = rigid_part(scene) if mixed else scene
 
-        def shapes_and_bottom():
-            shapes = rigid_shapes(rigid, exact_quadrics=self.exact_quadrics)
-            return bottom_levels(shapes)  # the shapes renumbered into the bottom levels' leaf order
+        def shapes_and_bottom():  # the shapes' tables in the bottom levels' leaf order
+            return shapes_and_bottom_levels(tuple(rigid.bodies), self.exact_quadrics)
 
         limits = dict(width=self.width, height=self.height, samples=self.samples, max_depth=self.max_depth,
                       max_memory=self.max_memory)

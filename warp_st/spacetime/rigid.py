@@ -35,7 +35,7 @@ from warp_st.spacetime.merge_classes import merge_plan, merged_bodies, motion_gr
 from warp_st.spacetime.start_boxes import start_boxes
 from warp_st.spacetime.visibility import intervals, union
 
-__all__ = ["RigidShapes", "rigid_shapes", "shading_tables", "renumbered", "triangle_order", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
+__all__ = ["RigidShapes", "ShapeParts", "rigid_shapes", "shape_parts", "assembled", "shading_tables", "renumbered", "triangle_order", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -184,14 +184,14 @@ def shading_tables(shapes: RigidShapes, dtype) -> RigidShapes:
     tables are never rounded to float32 and back)."""
     if shapes.tri_normal.dtype == np.dtype(dtype):
         return shapes
-    made = _rigid_shapes(shapes.bodies, False, dtype, plan=shapes.body_holder)
+    made = shape_parts(shapes.bodies, False, dtype, plan=shapes.body_holder)
     if shapes.reorder is None:
-        return made
+        return assembled(made)
     # The shapes renumbered are those a body traced as triangles uses (BottomLevels).
     traced = set(shapes.body_shape[(shapes.body_shape >= 0) & (shapes.body_quadric == 0)].tolist())
     orders = [shapes.reorder(rest, tris) if s in traced and len(tris) else None
               for s, (rest, tris) in enumerate(zip(made.shape_rest, made.shape_triangles))]
-    return renumbered(made, orders, None, None, shapes.reorder)
+    return assembled(made, orders, reorder=shapes.reorder)
 
 
 def triangle_order(shapes: RigidShapes, orders: list) -> np.ndarray:
@@ -298,13 +298,47 @@ def _held_triangles(bodies: tuple, materials: list, mat_index: dict, dtype) -> l
     return found
 
 
+@dataclass(frozen=True, eq=False)
+class ShapeParts:
+    """A ``RigidShapes`` before its per-triangle tables are joined (``shape_parts``):
+    the bottom levels are built from its shapes first, and ``assembled`` joins the
+    tables in their leaf order in one pass (a join, then ``renumbered``'s gathers, took
+    two passes over every table).
+
+    shape_rest, shape_triangles, body_shape, body_quadric: as ``RigidShapes``' (what
+    ``accel.blas.BottomLevels`` reads); tables: per table name, each body's rows in
+    emission order (``normals``: its vertices'); runs: per part, (its run, its shape):
+    the parts of one run are the rows one shape order permutes (a body's, or a merged
+    class's members' one after another); fields: ``RigidShapes``' other fields; dtype:
+    the tables' float type.
+    """
+
+    shape_rest: list
+    shape_triangles: list
+    body_shape: np.ndarray
+    body_quadric: np.ndarray
+    tables: dict
+    runs: list
+    fields: dict
+    dtype: np.dtype
+
+
 def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> RigidShapes:
     """``rigid_shapes``; ``plan``: the ``merge_plan`` to follow (a remake of the tables in
     another float type follows the first make's), else made here."""
+    return assembled(shape_parts(bodies, exact_quadrics, dtype, plan))
+
+
+def shape_parts(bodies: tuple, exact_quadrics: bool = False, dtype=np.float32, plan=None) -> ShapeParts:
+    """``rigid_shapes`` of ``bodies`` before its per-triangle tables are joined
+    (``ShapeParts``); ``plan`` as ``_rigid_shapes``'s."""
     materials: list = []
     mat_index: dict = {}
     n_bodies = len(bodies)
     found = _held_triangles(bodies, materials, mat_index, dtype)
+    # Texture coordinates only serve textured materials (rendering/device_textures.py):
+    # without any, the table of zeros (48 bytes per triangle) is left out.
+    textured = any(t is not None for m in materials for t in m.textures)
     seen: dict = {}  # the triangle tables instances share: their bytes made and hashed once
     keys = [None if bt is None else (bt.rest.astype(np.float32).tobytes(),
                                      bytes_once(seen, bt.triangles, lambda a: a.astype(np.int32).tobytes()))
@@ -342,6 +376,7 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
     map_shift = np.zeros((n_bodies, 3))
     tables = {k: [] for k in ("normals", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material",
                               "tri_st")}
+    runs = []  # per part of the tables: (its run, its shape)
     n_tri = n_vert = 0
     for i in emitted:
         body, bt, key = bodies[i], found[i], keys[i]
@@ -404,7 +439,10 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
         tables["tri_size"].append(bt.tri_size)
         tables["tri_body"].append(np.full(len(bt.triangles), i, np.int32))
         tables["tri_material"].append(bt.tri_material)
-        tables["tri_st"].append(np.zeros((len(bt.triangles), 3, 2), dtype) if bt.tri_st is None else bt.tri_st)
+        if textured:
+            tables["tri_st"].append(np.zeros((len(bt.triangles), 3, 2), dtype) if bt.tri_st is None else bt.tri_st)
+        # The run of rows the body's shape's order permutes: a merged class's members' rows are one run.
+        runs.append((int(holder[i]) if merged[i] else i, int(body_shape[i])))
         n_tri += len(bt.triangles)
         n_vert += len(bt.local)
     for h in np.flatnonzero(merged & (holder == np.arange(n_bodies))):
@@ -421,33 +459,73 @@ def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> Rigi
     # frame it may touch (spacetime/start_boxes.py).
     start_lo, start_hi = start_boxes(rest_lo, rest_hi, frame_of, body_shape >= 0)
 
-    textured = any(t is not None for m in materials for t in m.textures)
     shape_vidx = np.concatenate(shape_tris) if shape_tris else np.zeros((0, 3), np.int32)
     shape_first = np.cumsum([0] + [len(t) for t in shape_tris])
     body_shape_tri = np.where(body_shape >= 0, shape_first[np.maximum(body_shape, 0)], 0).astype(np.int32)
+    return ShapeParts(
+        shape_rest=shape_rest, shape_triangles=[shape_vidx[a:b] for a, b in zip(shape_first[:-1], shape_first[1:])],
+        body_shape=body_shape, body_quadric=quadric, tables=tables, runs=runs, dtype=np.dtype(dtype),
+        fields=dict(
+            shape_vidx=shape_vidx, body_shape_tri=body_shape_tri, body_tri_base=tri_base, body_vert_base=vert_base,
+            body_box_lo=box_lo, body_box_hi=box_hi, body_frame=frame[frame_of], body_rest_lo=rest_lo,
+            body_rest_hi=rest_hi, body_start_lo=start_lo, body_start_hi=start_hi, rest_from_lab=rest_from_lab,
+            quadric_inv=quadric_inv, quadric_centre=quadric_centre, quadric_param=quadric_param,
+            body_mapped=mapped, body_map=body_map, body_map_shift=map_shift, body_holder=holder,
+            materials=tuple(materials), bodies=bodies))
 
-    def cat(name, shape, dtype):
-        parts = tables[name]
-        return np.ascontiguousarray(np.concatenate(parts), dtype=dtype) if parts else np.zeros(shape, dtype)
 
+def assembled(parts: ShapeParts, orders: list | None = None, vidx=None, points=None, reorder=None) -> RigidShapes:
+    """The ``RigidShapes`` of ``parts``, shape s's triangles in the order ``orders[s]``
+    (indices into them; None, or no ``orders``: as made): ``renumbered``'s result, each
+    run of rows taken in its shape's order as the tables are joined. ``vidx`` /
+    ``points``: the renumbered triangles and the shapes' points one after another when
+    the caller holds them (the bottom levels' arrays: the shapes take views of them);
+    ``reorder``: what made the orders."""
+    orders = orders if orders is not None else [None] * len(parts.shape_rest)
+    first = np.cumsum([0] + [len(t) for t in parts.shape_triangles])
+    if vidx is None:
+        vidx = np.concatenate([t if o is None else np.take(t, o, axis=0) for t, o in zip(parts.shape_triangles, orders)]) \
+            if len(orders) else parts.fields["shape_vidx"]
+    rest = tuple(parts.shape_rest)
+    if points is not None:
+        vfirst = np.cumsum([0] + [len(r) for r in rest])
+        rest = tuple(points[a:b] for a, b in zip(vfirst[:-1], vfirst[1:]))
+    spans: list = []  # [first part, end part, shape, run]: the parts of one run
+    for k, (run, shape) in enumerate(parts.runs):
+        if spans and spans[-1][3] == run:
+            spans[-1][1] = k + 1
+        else:
+            spans.append([k, k + 1, shape, run])
+    dtypes = {"normals": parts.dtype, "tri_normal": parts.dtype, "tri_smooth": np.int32, "tri_size": parts.dtype,
+              "tri_body": np.int32, "tri_material": np.int32, "tri_st": parts.dtype}
+    empty = {"normals": (0, 3), "tri_normal": (0, 3), "tri_st": (0, 3, 2)}
+
+    def joined(name):
+        pieces = [np.asarray(p, dtype=dtypes[name]) for p in parts.tables[name]]
+        if not pieces:
+            return np.zeros(empty.get(name, (0,)), dtypes[name])
+        if name == "normals":  # per vertex: the vertices keep their order
+            return np.concatenate(pieces)
+        out = np.empty((sum(len(p) for p in pieces), *pieces[0].shape[1:]), dtypes[name])
+        row = 0
+        for a, b, shape, _ in spans:
+            src = pieces[a] if b == a + 1 else np.concatenate(pieces[a:b])
+            order = orders[shape] if shape >= 0 else None
+            if order is None:
+                out[row:row + len(src)] = src
+            else:  # mode "clip": the result written into out, not buffered (the indices are in range)
+                np.take(src, order, axis=0, out=out[row:row + len(src)], mode="clip")
+            row += len(src)
+        return out
+
+    # The joins on the pool, one table each (NumPy releases the GIL in the copies).
+    tables = dict(zip(dtypes, thread_pool(os.cpu_count() or 1).map(joined, dtypes)))
     return RigidShapes(
-        shape_rest=tuple(shape_rest), shape_triangles=tuple(shape_vidx[a:b] for a, b in zip(shape_first[:-1],
-                                                                                             shape_first[1:])),
-        shape_vidx=shape_vidx, body_shape_tri=body_shape_tri, body_shape=body_shape,
-        body_tri_base=tri_base, body_vert_base=vert_base, body_box_lo=box_lo, body_box_hi=box_hi,
-        body_frame=frame[frame_of], body_rest_lo=rest_lo, body_rest_hi=rest_hi, body_start_lo=start_lo,
-        body_start_hi=start_hi, rest_from_lab=rest_from_lab, body_quadric=quadric, quadric_inv=quadric_inv,
-        quadric_centre=quadric_centre, quadric_param=quadric_param, body_mapped=mapped, body_map=body_map,
-        body_map_shift=map_shift, body_holder=holder,
-        vertex_normals=cat("normals", (0, 3), dtype),
-        tri_normal=cat("tri_normal", (0, 3), dtype),
-        tri_smooth=cat("tri_smooth", (0,), np.int32), tri_size=cat("tri_size", (0,), dtype),
-        tri_body=cat("tri_body", (0,), np.int32), tri_material=cat("tri_material", (0,), np.int32),
-        materials=tuple(materials), bodies=bodies,
-        # Texture coordinates only serve textured materials (rendering/device_textures.py):
-        # without any, the table of zeros (48 bytes per triangle) is left out.
-        tri_st=cat("tri_st", (0, 3, 2), dtype) if textured else np.zeros((0, 3, 2), dtype),
-    )
+        **parts.fields | dict(shape_vidx=vidx), shape_rest=rest,
+        shape_triangles=tuple(vidx[a:b] for a, b in zip(first[:-1], first[1:])), body_shape=parts.body_shape,
+        body_quadric=parts.body_quadric, vertex_normals=tables["normals"], tri_normal=tables["tri_normal"],
+        tri_smooth=tables["tri_smooth"], tri_size=tables["tri_size"], tri_body=tables["tri_body"],
+        tri_material=tables["tri_material"], tri_st=tables["tri_st"], reorder=reorder)
 
 
 #: A segment's box is the body's box swept over the segment: a body moving by more than
