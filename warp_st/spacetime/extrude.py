@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from warp_st.core.extent import column_max, column_min, row_squares, transformed
+from warp_st.core.extent import column_max, column_min, row_squares, shifted, transformed
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Body, Scene, surface_keep, surface_triangles
 from warp_st.core.thread_pool import thread_pool
@@ -285,7 +285,7 @@ def bodies_triangles(bodies, materials: list, mat_index: dict, *, shared: bool) 
     for i, body in enumerate(bodies):
         if body.surfaces:
             A = contraction_matrix(body.velocity, body.decoupled)
-            rest = [np.asarray(s.points, dtype=np.float64) - body.origin for s in body.surfaces]
+            rest = [shifted(s.points, -np.asarray(body.origin, dtype=np.float64)) for s in body.surfaces]
             parts[i] = (A, rest, _instance_key(body, A, rest, seen))
             made.setdefault(parts[i][2], i)
     firsts = list(made.values())
@@ -308,7 +308,7 @@ def _own_copy(body: Body, shared: BodyTriangles | None, A: np.ndarray, rest: lis
     own = _joined([r for r, k in zip(rest, kept) if k.any()])
     tri_mat = _joined([_triangle_materials(s, k, materials, mat_index) for s, k in zip(body.surfaces, kept)
                        if k.any()])
-    return dataclasses.replace(shared, rest=own, local=transformed(own, A) + body.origin, tri_material=tri_mat)
+    return dataclasses.replace(shared, rest=own, local=shifted(transformed(own, A), body.origin), tri_material=tri_mat)
 
 
 def _instance_key(body: Body, A: np.ndarray, rest: list, seen: dict) -> tuple:
@@ -371,9 +371,9 @@ def _body_triangles(body: Body, A: np.ndarray, materials: list, mat_index: dict,
         base += len(pts)
     if not parts:
         return None
-    rest = _joined([p[0] for p in parts]) - body.origin
+    rest = shifted(_joined([p[0] for p in parts]), -np.asarray(body.origin, dtype=np.float64))
     contracted = transformed(rest, A)  # contracted offsets from the pivot at the reference time
-    local = contracted + body.origin
+    local = shifted(contracted, body.origin)
     tris = _joined([p[2] for p in parts])
     # Triangle normals of the contracted shape (lab frame, constant in time).
     fn, size = _facets(contracted, tris)

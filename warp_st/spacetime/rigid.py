@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from warp_st.core.extent import column_max, column_min
+from warp_st.core.extent import column_max, column_min, shifted
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Scene
 from warp_st.core.thread_pool import thread_pool
@@ -393,7 +393,7 @@ def shape_parts(bodies: tuple, exact_quadrics: bool = False, dtype=np.float32, p
             g = groups.setdefault(motion_group(body), i) if uses[key] < 2 else holder[i]
             frame_of[i] = g
             shift = rest_from_lab[i] @ pivot_offset(body, bodies[g])
-            rest = rest + shift
+            rest = shifted(rest, shift)
             key = ("piece", body.prim_path, key[1], len(rest)) if piece else (i,)
         if piece:
             unturn = np.linalg.inv(np.asarray(body.piece_linear, dtype=np.float64))

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from warp_st.core.deform import deforming, surface_hull_points
-from warp_st.core.extent import column_max, column_min, row_squares, transformed
+from warp_st.core.extent import column_max, column_min, row_squares, shifted, transformed
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Body, CameraState, Scene, surface_triangles
 
@@ -41,11 +41,13 @@ _UNBOUNDED_REACH = 1e6
 
 def body_ball(body: Body) -> tuple[np.ndarray, float]:
     """Centre m0 (lab, at t_ref) and radius rho of a ball holding the contracted body."""
-    pts = np.concatenate([surface_hull_points(s) for s in body.surfaces]) if body.surfaces else np.zeros((1, 3))
+    hulls = [surface_hull_points(s) for s in body.surfaces] or [np.zeros((1, 3))]
+    pts = hulls[0] if len(hulls) == 1 else np.concatenate(hulls)
     A = contraction_matrix(body.velocity, body.decoupled)
-    local = transformed(pts - body.origin, A) + body.origin
+    origin = np.asarray(body.origin, dtype=np.float64)
+    local = shifted(transformed(shifted(pts, -origin), A), origin)
     m0 = 0.5 * (column_min(local) + column_max(local))
-    rho = float(np.sqrt(row_squares(local - m0).max()))
+    rho = float(np.sqrt(row_squares(shifted(local, -m0)).max()))
     return m0, rho
 
 
