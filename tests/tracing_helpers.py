@@ -78,7 +78,8 @@ class RigidDatabase(Database):
         from warp_st.accel.blas import leaf_order
         from warp_st.accel.instances import BottomLevels, build_top_level
         from warp_st.rendering.device_rigid import RigidArrays, make_rigid_geometry
-        from warp_st.spacetime.rigid import motion_segments, renumbered, rigid_shapes, triangle_order
+        from warp_st.spacetime.rigid import motion_segments
+        from warp_st.spacetime.shape_tables import renumbered, rigid_shapes, triangle_order
 
         init_warp()
         self.k = get_kernels("float32", "rigid")

@@ -34,7 +34,7 @@ def main(argv=None) -> int:
 
     from warp_st.accel.blas import bottom_levels
     from warp_st.rendering.renderer import Renderer, init_warp
-    from warp_st.spacetime.rigid import rigid_shapes
+    from warp_st.spacetime.shape_tables import rigid_shapes
 
     init_warp()
     print(f"CPU: {b.cpu_model()}; process CPU time, medians of {args.runs} runs")

@@ -446,7 +446,7 @@ def table_first(args, log):
     # construction: shapes and shading tables, bottom levels, segments, top level) against the
     # 3D tracers' builds over the same triangles.
     from warp_st.accel.blas import bottom_levels
-    from warp_st.spacetime.rigid import rigid_shapes
+    from warp_st.spacetime.shape_tables import rigid_shapes
 
     builds = {"ours": [], "wp.Mesh": [], "Embree": [], "trees": []}
     shapes = rigid_shapes(scene)

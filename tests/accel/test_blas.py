@@ -270,7 +270,7 @@ def _t_error(shape: Shape, face, t, t_ref, p, d):
 
 def _stage_shapes():
     import warp_st
-    from warp_st.spacetime.rigid import rigid_shapes
+    from warp_st.spacetime.shape_tables import rigid_shapes
 
     out = []
     for stage in sorted((ROOT / "usd_scenes").rglob("*.usda")):
@@ -441,7 +441,7 @@ def test_renumbered_shapes_keep_every_table_with_its_triangle():
     ``rigid_shapes`` before renumbering, permuted by ``triangle_order``."""
     import warp_st
     from warp_st.accel.blas import bottom_levels
-    from warp_st.spacetime.rigid import rigid_shapes, shading_tables, triangle_order
+    from warp_st.spacetime.shape_tables import rigid_shapes, shading_tables, triangle_order
 
     scene = warp_st.load(str(ROOT / "usd_scenes" / "thesis" / "stage.usda"))
     before = rigid_shapes(scene)
@@ -464,7 +464,7 @@ def test_renumbered_shapes_keep_every_table_with_its_triangle():
 
 
 def _mixed_bodies():
-    """Bodies for every kind of run ``spacetime.rigid.assembled`` joins: two instances
+    """Bodies for every kind of run ``spacetime.shape_tables.assembled`` joins: two instances
     (one sphere's triangles about their pivots) with materials per face (GeomSubsets),
     a contracted copy, two overlapping cubes of one motion (a merged class: one run over
     two bodies), a textured two-surface body, and a body without triangles."""
@@ -512,7 +512,8 @@ def test_the_tables_joined_in_leaf_order_are_the_renumbered_tables():
     import dataclasses
 
     from warp_st.accel.blas import bottom_levels, shapes_and_bottom_levels
-    from warp_st.spacetime.rigid import RigidShapes, rigid_shapes
+    from warp_st.spacetime.rigid import RigidShapes
+    from warp_st.spacetime.shape_tables import rigid_shapes
 
     checked = set()
     for name, scene in _shipped_and_mixed():

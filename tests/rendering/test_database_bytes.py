@@ -24,7 +24,7 @@ from warp_st.core import tessellate
 from warp_st.core.scene import Body, CameraState, Light, Material, Surface
 from warp_st.rendering.database_bytes import rigid_tables, total_bytes
 from warp_st.rendering.renderer import Renderer
-from warp_st.spacetime.rigid import rigid_shapes
+from warp_st.spacetime.shape_tables import rigid_shapes
 from warp_st.testing import synthetic_scene
 
 CAMERA = CameraState("/Camera", 0.0, np.zeros(3), np.eye(3), focal_length=27.0, horizontal_aperture=36.0,

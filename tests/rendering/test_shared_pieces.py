@@ -3,7 +3,7 @@
 Laws:
 - the pieces of a turning body (``spacetime.animation.piece_bodies``) use one shape, the
   body's unturned rest shape, and so one ``wp.Mesh``; each piece's orientation goes into
-  the map that takes the ray into it (``spacetime.rigid.rigid_shapes`` ``body_map``);
+  the map that takes the ray into it (``spacetime.rigid.shape_parts`` ``body_map``);
 - the shared bottom level renders as each piece's own turned copy did (the pieces with
   ``Body.piece_linear`` dropped: the per-piece path), primary and shadow rays, for a
   body held in another body's frame (the map's shift) and for a coupled body moving at

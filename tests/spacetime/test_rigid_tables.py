@@ -5,7 +5,7 @@ reads them only then, rendering/device_textures.py; tests/rendering/test_texture
 renders textured stages through them): an untextured scene's table is empty.
 """
 import warp_st
-from warp_st.spacetime.rigid import rigid_shapes
+from warp_st.spacetime.shape_tables import rigid_shapes
 
 from animation_stages import HEADER, write
 

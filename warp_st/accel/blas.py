@@ -21,7 +21,7 @@ All shapes share one set of arrays (``kernels/blas.py`` traverses them):
 - ``vidx`` (T, 3) int32: every shape's triangles (vertex indices in the shape), shape
   after shape, each shape's in its tree's leaf order (a leaf's triangles are
   contiguous): slot i is row i. It is the shapes' own table too: ``bottom_levels``
-  renumbers each shape's triangles into this order once (``spacetime.rigid.renumbered``),
+  renumbers each shape's triangles into this order once (``spacetime.shape_tables.renumbered``),
   so the shading reads the same rows (``shape_vidx``) and a hit's slot minus its shape's
   first row is the triangle's index in its shape (one vertex store per shape, issue 17);
 - ``points`` (P, 3) float32: every shape's rest points, shape after shape (the shapes'
@@ -43,7 +43,8 @@ from warp_st.accel.bvh_wide import collapse
 from warp_st.core.extent import column_max, column_min
 from warp_st.core.thread_pool import thread_pool
 from warp_st.kernels.layout import LINK_SHIFT, WIDTH
-from warp_st.spacetime.rigid import RigidShapes, assembled, renumbered, shape_parts
+from warp_st.spacetime.rigid import RigidShapes, shape_parts
+from warp_st.spacetime.shape_tables import assembled, renumbered
 
 __all__ = ["BottomLevels", "bottom_levels", "shapes_and_bottom_levels", "leaf_order", "quantised_boxes", "shape_tree"]
 
@@ -206,7 +207,7 @@ def leaf_order(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 
 def shapes_and_bottom_levels(bodies: tuple, exact_quadrics: bool = False) -> tuple[RigidShapes, BottomLevels]:
     """``bottom_levels(rigid_shapes(...))`` of ``bodies``, the same arrays, with the
-    shading tables joined once, in the leaf order (``spacetime.rigid.assembled``): the
+    shading tables joined once, in the leaf order (``spacetime.shape_tables.assembled``): the
     trees are built from the shapes (``shape_parts``) before the tables are joined."""
     parts = shape_parts(bodies, exact_quadrics)
     bottom = BottomLevels(parts)
@@ -217,7 +218,7 @@ def shapes_and_bottom_levels(bodies: tuple, exact_quadrics: bool = False) -> tup
 
 def bottom_levels(shapes: RigidShapes) -> tuple[RigidShapes, BottomLevels]:
     """The bottom levels of ``shapes`` and the shapes renumbered into their leaf order
-    (``spacetime.rigid.renumbered``: every per-triangle table follows, so the images are
+    (``spacetime.shape_tables.renumbered``: every per-triangle table follows, so the images are
     the same; the shapes' triangles and points are the bottom levels' arrays)."""
     bottom = BottomLevels(shapes)
     ordered = renumbered(shapes, bottom.orders, bottom.vidx, bottom.points, leaf_order)

@@ -18,7 +18,8 @@ from warp_st.accel.instances import BottomLevels
 from warp_st.kernels import Kernels
 from warp_st.kernels.struct_ref import seal
 from warp_st.rendering.device import ShadingTables, outward, set_nodes, shared
-from warp_st.spacetime.rigid import MotionSegments, RigidShapes, shading_tables
+from warp_st.spacetime.rigid import MotionSegments, RigidShapes
+from warp_st.spacetime.shape_tables import shading_tables
 
 __all__ = ["RigidArrays", "make_rigid_geometry"]
 
@@ -29,7 +30,7 @@ class RigidArrays(ShadingTables):
     """Frame-independent device arrays of a rigid database: ``shapes`` with their
     ``bottom`` levels, ``segments`` under the ``top`` level (segments in input order;
     ``top.order`` puts them in leaf order). The shading tables share the memory of
-    ``shapes``' when their floats are the kernels' (``spacetime.rigid.shading_tables``)."""
+    ``shapes``' when their floats are the kernels' (``spacetime.shape_tables.shading_tables``)."""
 
     def __init__(self, k: Kernels, shapes: RigidShapes, bottom: BottomLevels, segments: MotionSegments,
                  top: FlatBVH):

@@ -1,6 +1,6 @@
 """Merge classes of the two-level rigid path: which bodies one bottom level holds together.
 
-``spacetime.rigid.rigid_shapes`` holds each body's triangles at rest; a merge class's
+``spacetime.rigid.shape_parts`` holds each body's triangles at rest; a merge class's
 bodies (``merge_plan``) share one shape, one bottom level and one set of motion segments
 (docs/design/two-level.md, "Merge classes share one shape"). Inputs are the bodies and
 ``rigid``'s held triangles (``found``: per body, with ``rest`` about the pivot and ``local``

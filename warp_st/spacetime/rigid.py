@@ -13,14 +13,13 @@ s is its own parameter. So one 3D structure over the triangles at rest serves ev
 time, speed and frame (the bottom level, ``accel.instances``); only the s-interval
 comes from the 4D side: the lab times t = o_t - s of the segment the ray is tested in.
 
-``rigid_shapes`` gathers each body's triangles once (frame-independent: the bottom
+``shape_parts`` gathers each body's triangles once (frame-independent: the bottom
 levels and the shading tables); ``motion_segments`` cuts each body's visible windows
 into segments whose 4D boxes the top level bounds (frame-dependent, cheap).
 """
 from __future__ import annotations
 
 import dataclasses
-import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,14 +27,13 @@ import numpy as np
 from warp_st.core.extent import column_max, column_min, shifted
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Scene
-from warp_st.core.thread_pool import thread_pool
 from warp_st.kernels.quadrics import QUADRIC_CAPSULE, QUADRIC_CONE, QUADRIC_CYLINDER, QUADRIC_SPHERE
 from warp_st.spacetime.extrude import TriangleTables, _body_size, bodies_triangles, bytes_once
 from warp_st.spacetime.merge_classes import merge_plan, merged_bodies, motion_group, pivot_offset
 from warp_st.spacetime.start_boxes import start_boxes
 from warp_st.spacetime.visibility import intervals, union
 
-__all__ = ["RigidShapes", "ShapeParts", "rigid_shapes", "shape_parts", "assembled", "shading_tables", "renumbered", "triangle_order", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
+__all__ = ["RigidShapes", "ShapeParts", "shape_parts", "analytic_shape", "quadric_body", "all_exact_quadrics", "MotionSegments", "motion_segments", "SEGMENT_SWEEP", "REST_BOX_PAD"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -45,16 +43,16 @@ class RigidShapes(TriangleTables):
 
     The shading tables' floats (``vertex_normals``, ``tri_normal``, ``tri_size``,
     ``tri_st``) are computed in float64 and stored in the float type of the kernels they
-    are made for (``rigid_shapes``'s ``dtype``, float32 by default), so the upload
+    are made for (``shape_parts``'s ``dtype``, float32 by default), so the upload
     (``rendering.device.ShadingTables``) shares their memory instead of copying them;
-    ``shading_tables`` makes them in another type when a render needs it.
+    ``shape_tables.shading_tables`` makes them in another type when a render needs it.
 
     shape_rest / shape_triangles: per shape, rest-frame points (P_s, 3) float32 in the
         coordinates of the shape's frame (as the bottom level takes them: computed in
         float64, then rounded), and triangles (T_s, 3) int32 (views of ``shape_vidx``,
         all shapes' triangles one after another); bodies whose
         points relative to their pivots and triangles are identical share one shape (one
-        bottom level; see ``rigid_shapes`` for the frames).
+        bottom level; see ``shape_parts`` for the frames).
     body_shape: shape index of each body, (B,), -1 for a body without triangles.
     body_tri_base, body_vert_base: the body's first global triangle / vertex, (B,).
     body_box_lo, body_box_hi: box of the contracted body at its reference time, (B, 3) (a
@@ -71,7 +69,7 @@ class RigidShapes(TriangleTables):
         a body's triangle k is its shape's, so its global vertex indices are
         shape_vidx[body_shape_tri + k] + body_vert_base (one table of vertex indices per
         shape, not per body: ``kernels/prim_lookup.py``).
-    body_quadric: the analytic shape a body is traced as (``rigid_shapes``'s
+    body_quadric: the analytic shape a body is traced as (``shape_parts``'s
         ``exact_quadrics``; ``kernels.quadrics`` codes), else 0, (B,); quadric_inv /
         quadric_centre / quadric_param: the shape is the canonical solid of that code in
         q = quadric_inv (r - quadric_centre), r in the shape frame's coordinates, with
@@ -81,12 +79,12 @@ class RigidShapes(TriangleTables):
         (B,) int32: the pieces of an animated body share one shape, the body's unrotated
         rest shape (``Body.piece_linear``), and a ray r(s) in the piece's frame
         coordinates meets it as body_map (r(s) - body_map_shift), (B, 3, 3) and (B, 3)
-        (identity and zeros where not mapped; see ``rigid_shapes``).
+        (identity and zeros where not mapped; see ``shape_parts``).
     body_holder: the body whose shape and motion segments hold each body, (B,) int32:
         itself, or (bodies merged into one shape: ``merge_plan``) the first body of its
         merge class, which holds the whole class's triangles in one bottom level and
         one set of segments (``body_merged``: 1 for every body of a merged class).
-    reorder: None, or (after ``renumbered``: each shape's triangles in its bottom
+    reorder: None, or (after ``shape_tables.renumbered``: each shape's triangles in its bottom
         level's leaf order) the function that gave a shape's order, which a remake of
         the tables in another float type applies again (``shading_tables``).
     """
@@ -178,96 +176,6 @@ def all_exact_quadrics(scene: Scene) -> bool:
     return bool(shaped) and all(quadric_body(b, True) for b in shaped)
 
 
-def shading_tables(shapes: RigidShapes, dtype) -> RigidShapes:
-    """``shapes`` with its shading tables' floats in ``dtype``: itself when they are, else
-    made again from its bodies (a float64 render of shapes made for float32 ones: the
-    tables are never rounded to float32 and back)."""
-    if shapes.tri_normal.dtype == np.dtype(dtype):
-        return shapes
-    made = shape_parts(shapes.bodies, False, dtype, plan=shapes.body_holder)
-    if shapes.reorder is None:
-        return assembled(made)
-    # The shapes renumbered are those a body traced as triangles uses (BottomLevels).
-    traced = set(shapes.body_shape[(shapes.body_shape >= 0) & (shapes.body_quadric == 0)].tolist())
-    orders = [shapes.reorder(rest, tris) if s in traced and len(tris) else None
-              for s, (rest, tris) in enumerate(zip(made.shape_rest, made.shape_triangles))]
-    return assembled(made, orders, reorder=shapes.reorder)
-
-
-def triangle_order(shapes: RigidShapes, orders: list) -> np.ndarray:
-    """The global triangles of ``shapes`` in the order ``renumbered`` gives them: row k
-    of a renumbered table is row ``triangle_order[k]`` of the table before."""
-    perm = np.arange(shapes.triangle_count)
-    for b in np.flatnonzero(shapes.body_shape >= 0):
-        order = orders[shapes.body_shape[b]]
-        if order is not None:
-            base = int(shapes.body_tri_base[b])
-            perm[base:base + len(order)] = base + order
-    return perm
-
-
-def renumbered(shapes: RigidShapes, orders: list, vidx, points, reorder) -> RigidShapes:
-    """``shapes`` with shape s's triangles in the order ``orders[s]`` (indices into them;
-    None: kept): its rows of ``shape_vidx`` and every body's rows of the per-triangle
-    tables follow, so a body's triangle k is still its shape's triangle k. ``vidx`` and
-    ``points``: the renumbered ``shape_vidx`` and the shapes' points one after another,
-    when the caller holds them already (the bottom levels' arrays: the shapes take
-    views of them), else None. ``reorder``: what made the orders (``RigidShapes``)."""
-    first = np.cumsum([0] + [len(t) for t in shapes.shape_triangles])
-    if vidx is None:
-        vidx = np.concatenate([t if o is None else t[o] for t, o in zip(shapes.shape_triangles, orders)]) \
-            if len(orders) else shapes.shape_vidx
-    rest = shapes.shape_rest
-    if points is not None:
-        vfirst = np.cumsum([0] + [len(r) for r in rest])
-        rest = tuple(points[a:b] for a, b in zip(vfirst[:-1], vfirst[1:]))
-    perm = triangle_order(shapes, orders)
-    names = ("tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material") + (("tri_st",) if len(shapes.tri_st)
-                                                                                     else ())
-    # Gathers of every triangle's rows, on the pool (NumPy releases the GIL in them). np.take,
-    # not a[perm]: NumPy's fancy index of a 2D array's rows took 4.5 ms on 258k (T, 3) rows,
-    # np.take 0.65 (the same rows).
-    tables = dict(zip(names, thread_pool(os.cpu_count() or 1).map(
-        lambda name: np.take(getattr(shapes, name), perm, axis=0), names)))
-    return dataclasses.replace(shapes, shape_vidx=vidx, shape_rest=rest,
-                               shape_triangles=tuple(vidx[a:b] for a, b in zip(first[:-1], first[1:])),
-                               reorder=reorder, **tables)
-
-
-def rigid_shapes(scene: Scene, exact_quadrics: bool = False, dtype=np.float32) -> RigidShapes:
-    """The shapes and shading tables of every body of ``scene`` (no frame enters), the
-    tables' floats in ``dtype`` (the kernels' float type, see ``RigidShapes``).
-
-    With ``exact_quadrics`` a body whose one surface is a UsdGeom.Sphere, Cylinder, Cone
-    or Capsule is traced as that exact shape (``body_quadric``): its boxes are the
-    shape's, and its triangles serve only its shading tables (material, body).
-
-    Frames. A shape used by several bodies (instances: the same triangles at the same
-    place relative to each body's pivot) is held once, in body coordinates about the
-    body's reference event. Every other body is held in the coordinates of its motion
-    group (the bodies with its velocity and coupling), about the group's first body's
-    reference event: r' = r + A^-1 (o - o_g - v (t_ref - t_g)), the same worldlines. All
-    bodies of a group then see a ray as the same float32 line, and those whose rest boxes
-    meet from the same start (the entry into their cluster's rest box:
-    ``spacetime/start_boxes.py``), so bodies in contact (the walls of a room) meet
-    without cracks, as triangles of one mesh do; in body coordinates each would round
-    the ray on its own and a ray through their seam could pass between them.
-
-    Pieces of an animated body (``Body.piece_linear`` = L, not instances of each other:
-    the body turns) are held in their motion groups' frames like any body, r_f = r_0 L + c
-    (row vectors; r_0 the body's static rest offsets, c the group shift), but share one
-    shape, r_0 (the first piece's r_f - c, taken back by L^-1), so a rotating body's
-    thousands of pieces cost one bottom level: a ray meets it as L^-T (r_f(s) - c)
-    (``body_map``), the same lookback s.
-
-    Merge classes (``merge_plan``: bodies of one motion whose boxes overlap or touch,
-    and copies of small instanced shapes) are one shape each: the members' points and
-    triangles one after another (their global triangles and vertices one run, so the
-    members are emitted right after their holder), every member's rest box the shape's.
-    """
-    return _rigid_shapes(tuple(scene.bodies), exact_quadrics, dtype)
-
-
 def _held(bt, dtype):
     """``bt`` (a ``BodyTriangles`` or None) as held until its rows are taken: triangles
     int32, the shading floats already in ``dtype``, texture coordinates that are all
@@ -301,8 +209,8 @@ def _held_triangles(bodies: tuple, materials: list, mat_index: dict, dtype) -> l
 @dataclass(frozen=True, eq=False)
 class ShapeParts:
     """A ``RigidShapes`` before its per-triangle tables are joined (``shape_parts``):
-    the bottom levels are built from its shapes first, and ``assembled`` joins the
-    tables in their leaf order in one pass (a join, then ``renumbered``'s gathers, took
+    the bottom levels are built from its shapes first, and ``shape_tables.assembled``
+    joins the tables in their leaf order in one pass (a join, then ``renumbered``'s gathers, took
     two passes over every table).
 
     shape_rest, shape_triangles, body_shape, body_quadric: as ``RigidShapes``' (what
@@ -323,15 +231,40 @@ class ShapeParts:
     dtype: np.dtype
 
 
-def _rigid_shapes(bodies: tuple, exact_quadrics: bool, dtype, plan=None) -> RigidShapes:
-    """``rigid_shapes``; ``plan``: the ``merge_plan`` to follow (a remake of the tables in
-    another float type follows the first make's), else made here."""
-    return assembled(shape_parts(bodies, exact_quadrics, dtype, plan))
-
-
 def shape_parts(bodies: tuple, exact_quadrics: bool = False, dtype=np.float32, plan=None) -> ShapeParts:
-    """``rigid_shapes`` of ``bodies`` before its per-triangle tables are joined
-    (``ShapeParts``); ``plan`` as ``_rigid_shapes``'s."""
+    """The shapes and shading tables of ``bodies`` (no frame enters) before the
+    per-triangle tables are joined (``ShapeParts``; ``spacetime.shape_tables.assembled``
+    joins them), the tables' floats in ``dtype`` (the kernels' float type, see
+    ``RigidShapes``); ``plan``: the ``merge_plan`` to follow (a remake of the tables in
+    another float type follows the first make's), else made here.
+
+    With ``exact_quadrics`` a body whose one surface is a UsdGeom.Sphere, Cylinder, Cone
+    or Capsule is traced as that exact shape (``body_quadric``): its boxes are the
+    shape's, and its triangles serve only its shading tables (material, body).
+
+    Frames. A shape used by several bodies (instances: the same triangles at the same
+    place relative to each body's pivot) is held once, in body coordinates about the
+    body's reference event. Every other body is held in the coordinates of its motion
+    group (the bodies with its velocity and coupling), about the group's first body's
+    reference event: r' = r + A^-1 (o - o_g - v (t_ref - t_g)), the same worldlines. All
+    bodies of a group then see a ray as the same float32 line, and those whose rest boxes
+    meet from the same start (the entry into their cluster's rest box:
+    ``spacetime/start_boxes.py``), so bodies in contact (the walls of a room) meet
+    without cracks, as triangles of one mesh do; in body coordinates each would round
+    the ray on its own and a ray through their seam could pass between them.
+
+    Pieces of an animated body (``Body.piece_linear`` = L, not instances of each other:
+    the body turns) are held in their motion groups' frames like any body, r_f = r_0 L + c
+    (row vectors; r_0 the body's static rest offsets, c the group shift), but share one
+    shape, r_0 (the first piece's r_f - c, taken back by L^-1), so a rotating body's
+    thousands of pieces cost one bottom level: a ray meets it as L^-T (r_f(s) - c)
+    (``body_map``), the same lookback s.
+
+    Merge classes (``merge_plan``: bodies of one motion whose boxes overlap or touch,
+    and copies of small instanced shapes) are one shape each: the members' points and
+    triangles one after another (their global triangles and vertices one run, so the
+    members are emitted right after their holder), every member's rest box the shape's.
+    """
     materials: list = []
     mat_index: dict = {}
     n_bodies = len(bodies)
@@ -377,12 +310,16 @@ def shape_parts(bodies: tuple, exact_quadrics: bool = False, dtype=np.float32, p
     tables = {k: [] for k in ("normals", "tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material",
                               "tri_st")}
     runs = []  # per part of the tables: (its run, its shape)
+    inverses: dict = {}  # A^-1 per (velocity, decoupled)
     n_tri = n_vert = 0
     for i in emitted:
         body, bt, key = bodies[i], found[i], keys[i]
         found[i] = None  # each body's triangles freed once its rows are taken
         tri_base[i], vert_base[i] = n_tri, n_vert
-        rest_from_lab[i] = np.linalg.inv(contraction_matrix(body.velocity, body.decoupled))
+        motion = (np.asarray(body.velocity, dtype=np.float64).tobytes(), bool(body.decoupled))
+        if motion not in inverses:  # bodies of one velocity share it (the same bits)
+            inverses[motion] = np.linalg.inv(contraction_matrix(body.velocity, body.decoupled))
+        rest_from_lab[i] = inverses[motion]
         if bt is None:
             continue
         rest = bt.rest
@@ -472,60 +409,6 @@ def shape_parts(bodies: tuple, exact_quadrics: bool = False, dtype=np.float32, p
             quadric_inv=quadric_inv, quadric_centre=quadric_centre, quadric_param=quadric_param,
             body_mapped=mapped, body_map=body_map, body_map_shift=map_shift, body_holder=holder,
             materials=tuple(materials), bodies=bodies))
-
-
-def assembled(parts: ShapeParts, orders: list | None = None, vidx=None, points=None, reorder=None) -> RigidShapes:
-    """The ``RigidShapes`` of ``parts``, shape s's triangles in the order ``orders[s]``
-    (indices into them; None, or no ``orders``: as made): ``renumbered``'s result, each
-    run of rows taken in its shape's order as the tables are joined. ``vidx`` /
-    ``points``: the renumbered triangles and the shapes' points one after another when
-    the caller holds them (the bottom levels' arrays: the shapes take views of them);
-    ``reorder``: what made the orders."""
-    orders = orders if orders is not None else [None] * len(parts.shape_rest)
-    first = np.cumsum([0] + [len(t) for t in parts.shape_triangles])
-    if vidx is None:
-        vidx = np.concatenate([t if o is None else np.take(t, o, axis=0) for t, o in zip(parts.shape_triangles, orders)]) \
-            if len(orders) else parts.fields["shape_vidx"]
-    rest = tuple(parts.shape_rest)
-    if points is not None:
-        vfirst = np.cumsum([0] + [len(r) for r in rest])
-        rest = tuple(points[a:b] for a, b in zip(vfirst[:-1], vfirst[1:]))
-    spans: list = []  # [first part, end part, shape, run]: the parts of one run
-    for k, (run, shape) in enumerate(parts.runs):
-        if spans and spans[-1][3] == run:
-            spans[-1][1] = k + 1
-        else:
-            spans.append([k, k + 1, shape, run])
-    dtypes = {"normals": parts.dtype, "tri_normal": parts.dtype, "tri_smooth": np.int32, "tri_size": parts.dtype,
-              "tri_body": np.int32, "tri_material": np.int32, "tri_st": parts.dtype}
-    empty = {"normals": (0, 3), "tri_normal": (0, 3), "tri_st": (0, 3, 2)}
-
-    def joined(name):
-        pieces = [np.asarray(p, dtype=dtypes[name]) for p in parts.tables[name]]
-        if not pieces:
-            return np.zeros(empty.get(name, (0,)), dtypes[name])
-        if name == "normals":  # per vertex: the vertices keep their order
-            return np.concatenate(pieces)
-        out = np.empty((sum(len(p) for p in pieces), *pieces[0].shape[1:]), dtypes[name])
-        row = 0
-        for a, b, shape, _ in spans:
-            src = pieces[a] if b == a + 1 else np.concatenate(pieces[a:b])
-            order = orders[shape] if shape >= 0 else None
-            if order is None:
-                out[row:row + len(src)] = src
-            else:  # mode "clip": the result written into out, not buffered (the indices are in range)
-                np.take(src, order, axis=0, out=out[row:row + len(src)], mode="clip")
-            row += len(src)
-        return out
-
-    # The joins on the pool, one table each (NumPy releases the GIL in the copies).
-    tables = dict(zip(dtypes, thread_pool(os.cpu_count() or 1).map(joined, dtypes)))
-    return RigidShapes(
-        **parts.fields | dict(shape_vidx=vidx), shape_rest=rest,
-        shape_triangles=tuple(vidx[a:b] for a, b in zip(first[:-1], first[1:])), body_shape=parts.body_shape,
-        body_quadric=parts.body_quadric, vertex_normals=tables["normals"], tri_normal=tables["tri_normal"],
-        tri_smooth=tables["tri_smooth"], tri_size=tables["tri_size"], tri_body=tables["tri_body"],
-        tri_material=tables["tri_material"], tri_st=tables["tri_st"], reorder=reorder)
 
 
 #: A segment's box is the body's box swept over the segment: a body moving by more than

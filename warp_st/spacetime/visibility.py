@@ -41,11 +41,10 @@ _UNBOUNDED_REACH = 1e6
 
 def body_ball(body: Body) -> tuple[np.ndarray, float]:
     """Centre m0 (lab, at t_ref) and radius rho of a ball holding the contracted body."""
-    hulls = [surface_hull_points(s) for s in body.surfaces] or [np.zeros((1, 3))]
-    pts = hulls[0] if len(hulls) == 1 else np.concatenate(hulls)
-    A = contraction_matrix(body.velocity, body.decoupled)
+    pts = [surface_hull_points(s) for s in body.surfaces] or [np.zeros((1, 3))]
+    pts = pts[0] if len(pts) == 1 else np.concatenate(pts)
     origin = np.asarray(body.origin, dtype=np.float64)
-    local = shifted(transformed(shifted(pts, -origin), A), origin)
+    local = shifted(transformed(shifted(pts, -origin), contraction_matrix(body.velocity, body.decoupled)), origin)
     m0 = 0.5 * (column_min(local) + column_max(local))
     rho = float(np.sqrt(row_squares(shifted(local, -m0)).max()))
     return m0, rho
