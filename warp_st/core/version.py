@@ -1,2 +1,2 @@
 """The package version, written into every EXR header and printed by ``warp-st --version``."""
-__version__ = "0.10.4"
+__version__ = "0.10.5"
