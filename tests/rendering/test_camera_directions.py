@@ -117,15 +117,21 @@ def test_one_direction_table_per_lens(velocity, decoupled):
     them from a table once the lens is seen again (rendering.camera.camera_rays, kept on
     the database by frame_inputs.lens_key): the same float64 pinhole, so the same image bit
     for bit; the table is NumPy's pinhole rounded to float32 (then aberrated in float32
-    when moving), row by row. Another frame of the lens (a later time) reads the same table."""
+    when moving), row by row. Another frame of the lens (a later time) reads the same table.
+    A renderer whose planned frames share a lens makes the table at its first frame
+    (``frame_inputs.directions``' ``planned``): the same image again."""
     cam = _camera(velocity, decoupled)
-    r = Renderer(_plane_scene(cam), frames=[cam.time, cam.time + 2.0], width=W, height=H)
+    r = Renderer(_plane_scene(cam), frames=[cam.time], width=W, height=H)
     computed = r.render(cam.time)
     assert not r.database.directions, "a lens seen once has no table"
     read = r.render(cam.time)
     (table,) = r.database.directions.values()
+    planned = Renderer(_plane_scene(cam), frames=[cam.time, cam.time + 2.0], width=W, height=H)  # a scene of its own
+    first = planned.render(cam.time)
+    (planned_table,) = planned.database.directions.values()  # a lens two planned frames share: a table at the first
     for name in ("rgba", "depth", "event_time", "proper_time", "doppler", "object_id"):
         assert getattr(computed, name).tobytes() == getattr(read, name).tobytes(), name
+        assert getattr(computed, name).tobytes() == getattr(first, name).tobytes(), name
     got = table.numpy().reshape(H, W, 3)
     if not any(velocity):
         # one rounding of the float64 pinhole to float32 apart: equal but where the float64
@@ -134,9 +140,11 @@ def test_one_direction_table_per_lens(velocity, decoupled):
         assert np.abs(got - want).max() <= np.spacing(np.float32(1.0)) and (got == want).mean() > 0.999
     else:  # aberrated in float32 (the kernel's scalar): a few float32 ulps of unit vectors
         np.testing.assert_allclose(got, pixel_directions(cam, W, H, frame="lab"), rtol=0, atol=4e-7)
-    r.render(cam.time + 2.0)
-    assert len(r.database.directions) == 1 and next(iter(r.database.directions.values())) is table
-    assert len(r.database.frame_structs) == 2  # the two frames' cameras, one table
+    r.render(cam.time + 2.0)  # a frame outside the plan: the database widened, the table made again
+    assert len(r.database.directions) == 1
+    planned.render(cam.time + 2.0)
+    assert list(planned.database.directions.values()) == [planned_table]
+    assert len(planned.database.frame_structs) == 2  # the two frames' cameras, one table
 
 
 def test_the_lens_key_holds_what_the_directions_depend_on():

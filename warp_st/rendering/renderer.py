@@ -10,6 +10,7 @@ so the tiles use every core) and returns a :class:`~warp_st.output.film.Image`.
 """
 from __future__ import annotations
 
+import collections
 import dataclasses
 import functools
 import math
@@ -249,6 +250,7 @@ class Renderer:
         self.threads = max(1, int(threads or os.cpu_count() or 1))
         self.stats = RenderStats()
         self._cameras = {f: self._camera(f) for f in self.frames}
+        self._lens_uses = None  # lens_key -> planned frames with it (render), made on first use
         self._build(list(self._cameras.values()))
 
     # -- setup ---------------------------------------------------------------
@@ -474,6 +476,7 @@ class Renderer:
         if frame not in self._cameras:
             # A frame outside the prepared set: widen the database to cover it.
             self._cameras[frame] = self._camera(frame)
+            self._lens_uses = None
             self.frames.append(frame)
             self._build(list(self._cameras.values()))
         cam = self._cameras[frame]
@@ -505,8 +508,13 @@ class Renderer:
                self.searchlight, tuple(origin.tolist()))
         shd, kcam = frame_inputs.structs(self.database, key, make_structs)
         if kcam.dirs.shape[0] == 0:  # the pixel centres' directions: a table once the lens is seen again
-            table = frame_inputs.directions(self.database, lens_key(self.precision.value, cam, self.width, self.height),
-                                            lambda: camera_rays(k, kcam, n_threads))
+            lens = lens_key(self.precision.value, cam, self.width, self.height)
+            if self._lens_uses is None:  # how many planned frames have each lens
+                self._lens_uses = collections.Counter(lens_key(self.precision.value, c, self.width, self.height)
+                                                      for c in self._cameras.values())
+            # A lens another planned frame shares gets its table at its first frame.
+            table = frame_inputs.directions(self.database, lens, lambda: camera_rays(k, kcam, n_threads),
+                                            planned=self._lens_uses[lens] > 1)
             if table is not None:
                 kcam.dirs = table
         n_pix = self.width * self.height
