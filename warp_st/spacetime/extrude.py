@@ -35,7 +35,7 @@ __all__ = [
     "SpacetimeMesh",
     "BodyTriangles",
     "body_triangles",
-    "bytes_once",
+    "once_per_array",
     "extrude_scene",
     "body_slices",
 ]
@@ -264,12 +264,10 @@ def bodies_triangles(bodies, materials: list, mat_index: dict, *, shared: bool) 
     coordinates and triangles; the precision their shared shape is held in,
     ``spacetime.rigid``) with the same contraction share the shading tables of the first:
     only ``rest``, ``local`` and the materials are their own."""
-    masks: dict = {}  # id of a surface's triangle array -> (it, surface_keep): instances share theirs
+    masks: dict = {}  # a surface's triangle array -> its surface_keep (instances share theirs)
 
     def kept(surf):
-        if id(surf.triangles) not in masks:
-            masks[id(surf.triangles)] = (surf.triangles, surface_keep(surf))
-        return masks[id(surf.triangles)][1]
+        return once_per_array(masks, surf.triangles, lambda _: surface_keep(surf))
 
     for body in bodies:
         for surf in body.surfaces:
@@ -322,16 +320,17 @@ def _instance_key(body: Body, A: np.ndarray, rest: list, seen: dict) -> tuple:
 
     key: list = [A.tobytes()]
     for s, r in zip(body.surfaces, rest):
-        key += [f32(r), bytes_once(seen, s.triangles, lambda a: np.asarray(a).tobytes()),
-                bytes_once(seen, s.normals, f32), bytes_once(seen, s.st, f32)]
+        key += [f32(r), once_per_array(seen, s.triangles, lambda a: np.asarray(a).tobytes()),
+                once_per_array(seen, s.normals, f32), once_per_array(seen, s.st, f32)]
     return tuple(key)
 
 
-def bytes_once(seen: dict, a, convert):
-    """``convert(a)`` (bytes of array ``a``; None for None), made once per array object:
-    ``seen`` holds each array by id beside its bytes, so arrays that bodies share (an
-    instance's triangles, normals) are copied and, as a bytes object caches its hash,
-    hashed once. Keeping the array keeps its id its own while ``seen`` lives."""
+def once_per_array(seen: dict, a, convert):
+    """``convert(a)`` (None for None), made once per array object: ``seen`` holds each
+    array by id beside its result, so for arrays that bodies share (an instance's
+    triangles, normals) the work is done once (their key bytes copied and, as a bytes
+    object caches its hash, hashed once; their triangles' kept masks). Keeping the array
+    keeps its id its own while ``seen`` lives."""
     if a is None:
         return None
     if id(a) not in seen:

@@ -28,7 +28,7 @@ from warp_st.core.extent import column_max, column_min, shifted
 from warp_st.core.lorentz import contraction_matrix
 from warp_st.core.scene import Scene
 from warp_st.kernels.quadrics import QUADRIC_CAPSULE, QUADRIC_CONE, QUADRIC_CYLINDER, QUADRIC_SPHERE
-from warp_st.spacetime.extrude import TriangleTables, _body_size, bodies_triangles, bytes_once
+from warp_st.spacetime.extrude import TriangleTables, _body_size, bodies_triangles, once_per_array
 from warp_st.spacetime.merge_classes import merge_plan, merged_bodies, motion_group, pivot_offset
 from warp_st.spacetime.start_boxes import start_boxes
 from warp_st.spacetime.visibility import intervals, union
@@ -274,7 +274,7 @@ def shape_parts(bodies: tuple, exact_quadrics: bool = False, dtype=np.float32, p
     textured = any(t is not None for m in materials for t in m.textures)
     seen: dict = {}  # the triangle tables instances share: their bytes made and hashed once
     keys = [None if bt is None else (bt.rest.astype(np.float32).tobytes(),
-                                     bytes_once(seen, bt.triangles, lambda a: a.astype(np.int32).tobytes()))
+                                     once_per_array(seen, bt.triangles, lambda a: a.astype(np.int32).tobytes()))
             for bt in found]
     uses: dict = {}
     for key in keys:

@@ -64,14 +64,8 @@ def renumbered(shapes: RigidShapes, orders: list, vidx, points, reorder) -> Rigi
     ``points``: the renumbered ``shape_vidx`` and the shapes' points one after another,
     when the caller holds them already (the bottom levels' arrays: the shapes take
     views of them), else None. ``reorder``: what made the orders (``RigidShapes``)."""
-    first = np.cumsum([0] + [len(t) for t in shapes.shape_triangles])
-    if vidx is None:
-        vidx = np.concatenate([t if o is None else t[o] for t, o in zip(shapes.shape_triangles, orders)]) \
-            if len(orders) else shapes.shape_vidx
-    rest = shapes.shape_rest
-    if points is not None:
-        vfirst = np.cumsum([0] + [len(r) for r in rest])
-        rest = tuple(points[a:b] for a, b in zip(vfirst[:-1], vfirst[1:]))
+    vidx, triangles, rest = _ordered(shapes.shape_vidx, shapes.shape_triangles, shapes.shape_rest, orders, vidx,
+                                     points)
     perm = triangle_order(shapes, orders)
     names = ("tri_normal", "tri_smooth", "tri_size", "tri_body", "tri_material") + (("tri_st",) if len(shapes.tri_st)
                                                                                      else ())
@@ -80,9 +74,24 @@ def renumbered(shapes: RigidShapes, orders: list, vidx, points, reorder) -> Rigi
     # np.take 0.65 (the same rows).
     tables = dict(zip(names, thread_pool(os.cpu_count() or 1).map(
         lambda name: np.take(getattr(shapes, name), perm, axis=0), names)))
-    return dataclasses.replace(shapes, shape_vidx=vidx, shape_rest=rest,
-                               shape_triangles=tuple(vidx[a:b] for a, b in zip(first[:-1], first[1:])),
+    return dataclasses.replace(shapes, shape_vidx=vidx, shape_rest=rest, shape_triangles=triangles,
                                reorder=reorder, **tables)
+
+
+def _ordered(shape_vidx, shape_triangles, shape_rest, orders: list, vidx, points):
+    """(all shapes' triangles, each shape's triangles, each shape's points) with shape s's
+    triangles in the order ``orders[s]`` (None: kept): ``vidx`` / ``points`` when the
+    caller holds them (the bottom levels' arrays: the shapes are views of them), else
+    made here (``shape_vidx`` itself when no shape is reordered)."""
+    if vidx is None:
+        vidx = shape_vidx if all(o is None for o in orders) else np.concatenate(
+            [t if o is None else np.take(t, o, axis=0) for t, o in zip(shape_triangles, orders)])
+    first = np.cumsum([0] + [len(t) for t in shape_triangles])
+    rest = tuple(shape_rest)
+    if points is not None:
+        vfirst = np.cumsum([0] + [len(r) for r in rest])
+        rest = tuple(points[a:b] for a, b in zip(vfirst[:-1], vfirst[1:]))
+    return vidx, tuple(vidx[a:b] for a, b in zip(first[:-1], first[1:])), rest
 
 
 def assembled(parts: ShapeParts, orders: list | None = None, vidx=None, points=None, reorder=None) -> RigidShapes:
@@ -93,14 +102,8 @@ def assembled(parts: ShapeParts, orders: list | None = None, vidx=None, points=N
     the caller holds them (the bottom levels' arrays: the shapes take views of them);
     ``reorder``: what made the orders."""
     orders = orders if orders is not None else [None] * len(parts.shape_rest)
-    first = np.cumsum([0] + [len(t) for t in parts.shape_triangles])
-    if vidx is None:
-        vidx = np.concatenate([t if o is None else np.take(t, o, axis=0) for t, o in zip(parts.shape_triangles, orders)]) \
-            if len(orders) else parts.fields["shape_vidx"]
-    rest = tuple(parts.shape_rest)
-    if points is not None:
-        vfirst = np.cumsum([0] + [len(r) for r in rest])
-        rest = tuple(points[a:b] for a, b in zip(vfirst[:-1], vfirst[1:]))
+    vidx, triangles, rest = _ordered(parts.fields["shape_vidx"], parts.shape_triangles, parts.shape_rest, orders,
+                                     vidx, points)
     spans: list = []  # [first part, end part, shape, run]: the parts of one run
     for k, (run, shape) in enumerate(parts.runs):
         if spans and spans[-1][3] == run:
@@ -132,8 +135,7 @@ def assembled(parts: ShapeParts, orders: list | None = None, vidx=None, points=N
     # The joins on the pool, one table each (NumPy releases the GIL in the copies).
     tables = dict(zip(dtypes, thread_pool(os.cpu_count() or 1).map(joined, dtypes)))
     return RigidShapes(
-        **parts.fields | dict(shape_vidx=vidx), shape_rest=rest,
-        shape_triangles=tuple(vidx[a:b] for a, b in zip(first[:-1], first[1:])), body_shape=parts.body_shape,
+        **parts.fields | dict(shape_vidx=vidx), shape_rest=rest, shape_triangles=triangles, body_shape=parts.body_shape,
         body_quadric=parts.body_quadric, vertex_normals=tables["normals"], tri_normal=tables["tri_normal"],
         tri_smooth=tables["tri_smooth"], tri_size=tables["tri_size"], tri_body=tables["tri_body"],
         tri_material=tables["tri_material"], tri_st=tables["tri_st"], reorder=reorder)
